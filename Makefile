@@ -1,0 +1,54 @@
+# pdem: two commands on a fresh machine, `make run` and `make test` (README.md).
+# The venv is built from binary wheels only (requirements.lock pins them; the mpich wheel
+# brings MPI, the h5py wheel brings HDF5); the repository itself is put on the venv's path.
+
+PY      ?= python3
+VENV    := .venv
+VPY     := $(VENV)/bin/python
+MPIEXEC := $(VENV)/bin/mpiexec
+NP      ?= 2
+export NUMBA_THREADING_LAYER ?= workqueue
+export OMP_NUM_THREADS ?= 1
+export MPLBACKEND ?= Agg
+
+PYTEST  := $(VPY) -m pytest -q --timeout=900 --timeout-method=thread
+MPI_PYTEST := timeout -k 10 1500 $(MPIEXEC) -n $(NP) $(VPY) -m mpi4py -m pytest -q \
+              --timeout=900 --timeout-method=thread --capture=sys
+
+.PHONY: venv run test test-unit test-mpi bench validate clean
+
+venv: $(VENV)/.done
+
+$(VENV)/.done: requirements.lock pyproject.toml
+	$(PY) -m venv $(VENV)
+	$(VPY) -m pip install -q --disable-pip-version-check --only-binary :all: -r requirements.lock
+	$(VPY) -c "import site, os; open(os.path.join(site.getsitepackages()[0], 'pdem-src.pth'), 'w').write(os.getcwd() + '\n')"
+	touch $@
+
+# The main job: the default scene on its built-in defaults (see jobs/README.md).
+run: venv
+	$(VPY) -m pdem run jobs/deposition.toml --out runs/deposition
+
+# Serial tests first (they also fill the numba cache), then the MPI tests on NP ranks and on 3.
+test: venv
+	$(PYTEST) tests --ignore=tests/mpi
+	@if [ -d tests/mpi ]; then \
+	  $(MPI_PYTEST) tests/mpi && \
+	  timeout -k 10 1500 $(MPIEXEC) -n 3 $(VPY) -m mpi4py -m pytest -q --timeout=900 --timeout-method=thread --capture=sys tests/mpi; \
+	fi
+
+test-unit: venv
+	$(PYTEST) tests/unit
+
+test-mpi: venv
+	$(MPI_PYTEST) tests/mpi
+
+validate: venv
+	$(PYTEST) -m validate tests
+
+bench: venv
+	$(VPY) -m bench
+
+clean:
+	rm -rf $(VENV) runs bench/cache
+	find . -name __pycache__ -type d -prune -exec rm -rf {} +

@@ -1,0 +1,97 @@
+"""Command line: ``python -m analysis box RESULTS.h5 [--out DIR]``.
+
+This module owns the CLI only: argument parsing, the output directory and exit status. Bad
+input (not a pdem result, no complete cycle, unwritable output) exits with status 2 and one
+line on stderr, without a traceback.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from .box import analyse_box
+from .io import ResultFileError, read_box_test
+from .plots import plot_loops, plot_settlement, plot_stiffness
+from .stiffness import LOADING_WINDOW, UNLOADING_FRACTION
+from .summary import write_summary_json, write_summary_text
+
+PROG = "python -m analysis"
+EXIT_BAD_INPUT = 2
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse, but usage errors are one line on stderr with status 2."""
+
+    def error(self, message):
+        self.exit(EXIT_BAD_INPUT, f"{self.prog}: error: {message} (see --help)\n")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = _Parser(prog=PROG, description="Analyse pdem HDF5 result files.")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
+    box = sub.add_parser(
+        "box", help="box test: loops, settlement per cycle with fits, stiffness per cycle",
+        description="Write loops.png, settlement.png, stiffness.png, summary.txt and "
+                    "summary.json for a cyclic box test.")
+    box.add_argument("results", type=Path, metavar="RESULTS.h5", help="pdem results file")
+    box.add_argument("--out", type=Path, metavar="DIR",
+                     help="output directory (default: RESULTS-analysis beside the file)")
+    box.add_argument("--window", type=float, nargs=2, metavar=("LO", "HI"),
+                     default=LOADING_WINDOW,
+                     help="loading-stiffness force window, fractions of the branch force "
+                          "range (default: %(default)s)")
+    box.add_argument("--unload-fraction", type=float, default=UNLOADING_FRACTION,
+                     metavar="F", help="part of the force drop used for the unloading "
+                                       "stiffness (default: %(default)s)")
+    return parser
+
+
+def run_box(results_path: Path, out: Path | None, window=LOADING_WINDOW,
+            fraction=UNLOADING_FRACTION) -> list[Path]:
+    """Analyse one box test and write its plots and summaries; return the written files."""
+    results = read_box_test(results_path)
+    result = analyse_box(results, window=window, fraction=fraction)
+    out = out if out is not None else results_path.with_name(results_path.stem + "-analysis")
+    out.mkdir(parents=True, exist_ok=True)
+    s = results.series
+    return [
+        plot_loops(s["sleeper_force"], s["sleeper_settlement"], result.bounds,
+                   out / "loops.png"),
+        plot_settlement(result.table.cycle, result.permanent, out / "settlement.png",
+                        result.log_fit, result.power_fit, peak=result.table.settlement_peak),
+        plot_stiffness(result.table.cycle, result.stiffness, out / "stiffness.png"),
+        write_summary_text(result, out / "summary.txt"),
+        write_summary_json(result, out / "summary.json"),
+    ]
+
+
+def main(argv=None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if args.command is None:
+        parser.print_help(sys.stderr)
+        return EXIT_BAD_INPUT
+    try:
+        written = run_box(args.results, args.out, tuple(args.window), args.unload_fraction)
+    except ResultFileError as err:
+        return _fail(str(err))
+    except (ValueError, OSError) as err:
+        return _fail(f"{args.results}: {_one_line(err)}")
+    for path in written:
+        print(path)
+    return 0
+
+
+def _fail(message: str) -> int:
+    print(f"{PROG}: error: {_one_line(message)}", file=sys.stderr)
+    return EXIT_BAD_INPUT
+
+
+def _one_line(message) -> str:
+    return " ".join(str(message).split())
+
+
+if __name__ == "__main__":
+    sys.exit(main())

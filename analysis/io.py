@@ -1,0 +1,190 @@
+"""Open, validate and read pdem results files (format in `analysis.schema`).
+
+This module owns `ResultFileError` and the readers. Everything read comes back as plain numpy
+float64 arrays in SI units ([s], [m], [N]). Any file that is not a valid pdem result raises
+`ResultFileError` with one line naming the file and the problem. Imports numpy and h5py only;
+never pdem.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+
+import h5py
+import numpy as np
+
+from .schema import (BOX_SERIES, CYCLE_FIELDS, CYCLE_UNITS, REQUIRED_SERIES, ROOT_ATTRS,
+                     SCHEMA, SCHEMA_VERSION, SERIES_UNITS)
+
+
+class ResultFileError(Exception):
+    """A file is not a (usable) pdem results file; the message is one line."""
+
+    def __init__(self, path, problem: str):
+        super().__init__(f"{path}: {problem}")
+        self.path = Path(path)
+        self.problem = problem
+
+
+@dataclass(frozen=True)
+class Results:
+    """Contents of one results file.
+
+    Attributes
+    ----------
+    path : Path
+    attrs : dict
+        Root attributes (``kind``, ``pdem_version``, ``schema_version``, ...).
+    scene : dict
+        The scene, decoded from the ``scene`` JSON attribute.
+    series : dict of str -> ndarray
+        Time series, float64, equal length, SI units.
+    units : dict of str -> str
+        Units of every series.
+    cycles : dict of str -> ndarray, or None
+        Per-cycle table (fields `analysis.schema.CYCLE_FIELDS`), None if the file has none.
+    """
+
+    path: Path
+    attrs: dict
+    scene: dict
+    series: dict
+    units: dict
+    cycles: dict | None
+
+    @property
+    def kind(self) -> str:
+        return self.attrs["kind"]
+
+
+def read_results(path, required=REQUIRED_SERIES) -> Results:
+    """Read and validate a results file.
+
+    Parameters
+    ----------
+    path : str or Path
+    required : sequence of str
+        Series that must be present (``time`` and ``step`` always are).
+
+    Raises
+    ------
+    ResultFileError
+        Missing file, not HDF5, not a pdem result, unsupported version, missing or malformed
+        datasets.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise ResultFileError(path, "no such file")
+    if not h5py.is_hdf5(path):
+        raise ResultFileError(path, "not an HDF5 file")
+    try:
+        with h5py.File(path, "r") as f:
+            attrs = _read_root_attrs(path, f)
+            scene = _decode_scene(path, attrs["scene"])
+            required = tuple(dict.fromkeys((*REQUIRED_SERIES, *required)))
+            series, units = _read_group(path, f, "series", required, SERIES_UNITS,
+                                        kind=attrs["kind"])
+            cycles = None
+            if "cycles" in f:
+                cycles, _ = _read_group(path, f, "cycles", CYCLE_FIELDS, CYCLE_UNITS)
+    except OSError as err:  # h5py reports damaged files as OSError
+        raise ResultFileError(path, f"unreadable HDF5 ({_first_line(err)})") from None
+    _check_time(path, series["time"])
+    return Results(path=path, attrs=attrs, scene=scene, series=series, units=units,
+                   cycles=cycles)
+
+
+def read_box_test(path) -> Results:
+    """Read a box-test result: the sleeper series must be present, finite and >= 2 samples."""
+    results = read_results(path, required=REQUIRED_SERIES + BOX_SERIES)
+    n = len(results.series["time"])
+    if n < 2:
+        raise ResultFileError(path, f"series has {n} sample(s), need at least 2")
+    for name in BOX_SERIES:
+        if not np.all(np.isfinite(results.series[name])):
+            raise ResultFileError(path, f"/series/{name} contains non-finite values")
+    return results
+
+
+def _read_root_attrs(path: Path, f: h5py.File) -> dict:
+    if "schema" not in f.attrs:
+        raise ResultFileError(path, "not a pdem result (root attribute 'schema' missing)")
+    attrs = {k: _plain(v) for k, v in f.attrs.items()}
+    if attrs["schema"] != SCHEMA:
+        raise ResultFileError(path, f"schema is {attrs['schema']!r}, expected {SCHEMA!r}")
+    missing = [k for k in ROOT_ATTRS if k not in attrs]
+    if missing:
+        raise ResultFileError(path, f"root attribute(s) missing: {', '.join(missing)}")
+    version = attrs["schema_version"]
+    if not isinstance(version, int) or version > SCHEMA_VERSION or version < 1:
+        raise ResultFileError(path, f"schema_version {version!r} not supported "
+                                    f"(this analysis reads 1..{SCHEMA_VERSION})")
+    return attrs
+
+
+def _decode_scene(path: Path, text) -> dict:
+    try:
+        scene = json.loads(text)
+    except (TypeError, ValueError):
+        raise ResultFileError(path, "root attribute 'scene' is not JSON text") from None
+    if not isinstance(scene, dict):
+        raise ResultFileError(path, "root attribute 'scene' is not a JSON object")
+    return scene
+
+
+def _read_group(path, f, group, required, known_units, kind=None):
+    """All 1-D numeric datasets of a group as float64, with units; checks names and lengths."""
+    if group not in f or not isinstance(f[group], h5py.Group):
+        raise ResultFileError(path, f"group /{group} missing")
+    g = f[group]
+    missing = [name for name in required if name not in g]
+    if missing:
+        hint = f" (kind is {kind!r})" if kind is not None else ""
+        names = ", ".join(f"/{group}/{name}" for name in missing)
+        raise ResultFileError(path, f"dataset(s) missing: {names}{hint}")
+    data, units = {}, {}
+    for name, ds in g.items():
+        where = f"/{group}/{name}"
+        if not isinstance(ds, h5py.Dataset) or ds.ndim != 1:
+            raise ResultFileError(path, f"{where} is not a 1-D dataset")
+        if not np.issubdtype(ds.dtype, np.number):
+            raise ResultFileError(path, f"{where} is not numeric ({ds.dtype})")
+        if "units" not in ds.attrs:
+            raise ResultFileError(path, f"{where} has no 'units' attribute")
+        unit = _plain(ds.attrs["units"])
+        if name in known_units and unit != known_units[name]:
+            raise ResultFileError(path, f"{where} is in {unit!r}, expected {known_units[name]!r}")
+        data[name] = np.asarray(ds[()], dtype=np.float64)
+        units[name] = unit
+    lengths = {name: len(v) for name, v in data.items()}
+    if len(set(lengths.values())) > 1:
+        detail = ", ".join(f"{k}={v}" for k, v in lengths.items())
+        raise ResultFileError(path, f"/{group} datasets differ in length ({detail})")
+    return data, units
+
+
+def _check_time(path, time: np.ndarray) -> None:
+    if not np.all(np.isfinite(time)):
+        raise ResultFileError(path, "/series/time contains non-finite values")
+    if np.any(np.diff(time) < 0):
+        raise ResultFileError(path, "/series/time decreases")
+
+
+def _plain(value):
+    """HDF5 attribute -> str / int / float / list."""
+    if isinstance(value, bytes):
+        return value.decode("utf-8", "replace")
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, np.integer):
+        return int(value)
+    if isinstance(value, np.floating):
+        return float(value)
+    return value
+
+
+def _first_line(err: Exception) -> str:
+    text = str(err).strip()
+    return text.splitlines()[0] if text else type(err).__name__

@@ -1,0 +1,128 @@
+"""PNG plots of a cyclic test: force-settlement loops, settlement per cycle, stiffness per cycle.
+
+This module owns the figures. Inputs are SI arrays ([m], [N], [N/m]); the axes show engineering
+units ([mm], [kN], [MN/m]). It uses matplotlib's object API with the Agg renderer (no pyplot,
+no global backend switch) and imports matplotlib only when a plot is drawn, so
+``import analysis`` stays light.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+MM, KN, MN_PER_M = 1e3, 1e-3, 1e-6  # SI -> plotted units
+LOG_X_ABOVE = 20  # use a logarithmic cycle axis beyond this many cycles
+
+
+def plot_loops(force, settlement, bounds, path) -> Path:
+    """Force-settlement loops, one line per cycle coloured by cycle number.
+
+    Parameters
+    ----------
+    force : ndarray [N]
+        Force of the ballast on the sleeper.
+    settlement : ndarray [m]
+    bounds : ndarray of int
+        Cycle boundaries (`analysis.cycles`).
+    path : str or Path
+        PNG to write.
+    """
+    from matplotlib.collections import LineCollection
+
+    from .cycles import cycle_slices
+
+    slices = cycle_slices(bounds)
+    u, f = np.asarray(settlement) * MM, np.asarray(force) * KN
+    lines = [np.column_stack((u[s], f[s])) for s in slices]
+    fig, ax = _figure()
+    lc = LineCollection(lines, cmap="viridis", linewidths=1.0)
+    lc.set_array(np.arange(1, len(lines) + 1))
+    ax.add_collection(lc)
+    ax.autoscale()
+    fig.colorbar(lc, ax=ax, label="cycle")
+    ax.set(xlabel="sleeper settlement [mm]", ylabel="ballast force on sleeper [kN]",
+           title=f"Force-settlement loops ({len(lines)} cycles)")
+    ax.grid(True, alpha=0.3)
+    return _save(fig, path)
+
+
+def plot_settlement(cycle, permanent, path, log_fit=None, power_fit=None, peak=None) -> Path:
+    """Permanent settlement per cycle with the log and power-law fits.
+
+    Parameters
+    ----------
+    cycle : ndarray [-]
+    permanent : ndarray [m]
+        Settlement at the end of each cycle.
+    path : str or Path
+    log_fit, power_fit : LogFit, PowerFit, optional
+    peak : ndarray [m], optional
+        Settlement at peak load, drawn for comparison.
+    """
+    cycle = np.asarray(cycle, dtype=np.float64)
+    fig, ax = _figure()
+    ax.plot(cycle, np.asarray(permanent) * MM, "o", color="C0", ms=4,
+            label="permanent (end of cycle)")
+    if peak is not None:
+        ax.plot(cycle, np.asarray(peak) * MM, "^", color="C7", ms=3, label="at peak load")
+    n = np.geomspace(1.0, max(cycle.max(), 2.0), 200)
+    if log_fit is not None:
+        ax.plot(n, log_fit(n) * MM, "-", color="C1",
+                label=f"a + b ln N: a={log_fit.a * MM:.4g} mm, b={log_fit.b * MM:.4g} mm, "
+                      f"R²={log_fit.r2:.4f}")
+    if power_fit is not None:
+        ax.plot(n, power_fit(n) * MM, "--", color="C2",
+                label=f"S1 N^b: S1={power_fit.s1 * MM:.4g} mm, b={power_fit.b:.4g}, "
+                      f"R²={power_fit.r2:.4f}")
+    _log_cycle_axis(ax)
+    ax.set(xlabel="cycle N", ylabel="sleeper settlement [mm]", title="Settlement per cycle")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize="small")
+    return _save(fig, path)
+
+
+def plot_stiffness(cycle, stiffness, path) -> Path:
+    """Resilient, loading and unloading stiffness per cycle.
+
+    Parameters
+    ----------
+    cycle : ndarray [-]
+    stiffness : CycleStiffness [N/m]
+    path : str or Path
+    """
+    cycle = np.asarray(cycle, dtype=np.float64)
+    fig, ax = _figure()
+    for name, marker in (("resilient", "o-"), ("loading", "s--"), ("unloading", "^:")):
+        k = np.asarray(getattr(stiffness, name))
+        if np.any(np.isfinite(k)):
+            ax.plot(cycle, k * MN_PER_M, marker, ms=4, label=name)
+    if len(cycle) > LOG_X_ABOVE:
+        _log_cycle_axis(ax)
+    ax.set(xlabel="cycle N", ylabel="stiffness [MN/m]", title="Stiffness per cycle")
+    ax.grid(True, which="both", alpha=0.3)
+    if ax.get_legend_handles_labels()[0]:
+        ax.legend(fontsize="small")
+    return _save(fig, path)
+
+
+def _figure():
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(7.0, 5.0), layout="constrained")
+    return fig, fig.add_subplot()
+
+
+def _log_cycle_axis(ax):
+    """Logarithmic cycle axis labelled 1, 10, 100 (not 10^0, 10^1)."""
+    from matplotlib.ticker import StrMethodFormatter
+
+    ax.set_xscale("log")
+    ax.xaxis.set_major_formatter(StrMethodFormatter("{x:g}"))
+
+
+def _save(fig, path) -> Path:
+    path = Path(path)
+    fig.savefig(path, dpi=120, format="png")
+    return path

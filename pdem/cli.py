@@ -1,0 +1,39 @@
+"""The `pdem` command line: ``python -m pdem run SCENE.toml --out DIR``.
+
+Bad input prints one line (the field, the value, what is allowed) and exits 2; a run stopped by
+an instability prints the cause and exits 4; a run stopped by SIGTERM/SIGUSR1 after writing a
+checkpoint exits 3 (`pdem.io.signals`).
+"""
+import argparse
+import sys
+
+from .errors import EXIT_INPUT_ERROR, EXIT_INSTABILITY, InputError, InstabilityError
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(prog="pdem", description="pdem: parallel DEM for railway ballast")
+    sub = ap.add_subparsers(dest="command", required=True)
+    r = sub.add_parser("run", help="run a scene file (TOML)")
+    r.add_argument("scene", help="scene file, e.g. jobs/deposition.toml")
+    r.add_argument("--out", default=None, help="output directory (default runs/<scene name>)")
+    r.add_argument("--steps", type=int, default=None, help="override run.steps")
+    args = ap.parse_args(argv)
+    if args.command == "run":
+        from pathlib import Path
+
+        out = args.out or str(Path("runs") / Path(args.scene).stem)
+        try:
+            from .run import run_scene_file
+
+            return run_scene_file(args.scene, out, steps=args.steps)
+        except InputError as exc:
+            print(f"pdem: error: {exc}", file=sys.stderr)
+            return EXIT_INPUT_ERROR
+        except InstabilityError as exc:
+            print(f"pdem: unstable: {exc}", file=sys.stderr)
+            return EXIT_INSTABILITY
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,155 @@
+"""Contact store: candidate pairs of one kind with their per-contact parameters and history.
+
+One `ContactList` per contact kind (sphere–sphere, sphere–wall, sphere–facet). A row is a
+*candidate* pair from the neighbour list; `state[p]` is 1 while the pair is a real contact
+(Yade: the interaction exists) and 0 otherwise. Columns:
+
+- ``i`` row of the first body; for sphere–sphere ``gid[i] < gid[j]`` (Yade's id1 < id2), for
+  sphere–wall and sphere–facet ``i`` is the sphere and ``j`` the wall or facet index.
+- ``key`` int64 that identifies the pair on every rank and across rebuilds:
+  ``gid_i << 32 | gid_j`` for spheres, ``gid << 20 | index`` for walls and facets.
+- ``params[:, n_params]`` fixed when the contact is created (Yade's Ip2), ``history[:, width]``
+  carried from step to step; the widths are set by the contact law.
+- per step outputs: ``force`` [N] on the first body (sphere–sphere) or on the sphere (walls,
+  facets), ``torque_i``/``torque_j`` [N·m], ``overlap`` [m] (0 when not in contact).
+
+History survives neighbour-list rebuilds and migration because it is looked up by ``key``.
+"""
+import numpy as np
+from numba import njit
+
+KEY_SHIFT_SPHERE = 32
+KEY_SHIFT_INDEX = 20
+MAX_WALLS_OR_FACETS = 1 << KEY_SHIFT_INDEX
+
+
+class ContactList:
+    """Candidate pairs of one kind, structure of arrays, with growable capacity."""
+
+    def __init__(self, n_params, history_width, capacity=64):
+        self.n_params = n_params
+        self.history_width = history_width
+        self.n = 0
+        self.capacity = 0
+        self._alloc(capacity)
+
+    def _alloc(self, capacity):
+        self.capacity = capacity
+        self.i = np.zeros(capacity, np.int64)
+        self.j = np.zeros(capacity, np.int64)
+        self.key = np.zeros(capacity, np.int64)
+        self.state = np.zeros(capacity, np.int8)
+        self.params = np.zeros((capacity, self.n_params))
+        self.history = np.zeros((capacity, self.history_width))
+        self.force = np.zeros((capacity, 3))
+        self.torque_i = np.zeros((capacity, 3))
+        self.torque_j = np.zeros((capacity, 3))
+        self.overlap = np.zeros(capacity)
+
+    def replace(self, i, j, key):
+        """Install a new candidate list; state, params and history of pairs whose key existed
+        before are carried over, every other row starts empty."""
+        n = len(i)
+        old = (self.n, self.key, self.state, self.params, self.history)
+        cap = max(n, 16)
+        if cap > self.capacity or cap < self.capacity // 4:
+            cap = int(cap * 1.3) + 16
+        else:
+            cap = self.capacity
+        new_state = np.zeros(cap, np.int8)
+        new_params = np.zeros((cap, self.n_params))
+        new_hist = np.zeros((cap, self.history_width))
+        carry_history(old[0], old[1], old[2], old[3], old[4], n, key, new_state, new_params, new_hist)
+        if cap != self.capacity:
+            self._alloc(cap)
+        self.state, self.params, self.history = new_state, new_params, new_hist
+        self.i[:n] = i
+        self.j[:n] = j
+        self.key[:n] = key
+        self.n = n
+
+    def real_rows(self):
+        """Indices of the rows that are real contacts."""
+        return np.flatnonzero(self.state[: self.n] == 1)
+
+    def add_carried(self, key, state, params, history):
+        """Merge rows received from another rank (migration) into the carry table.
+
+        They are stored as extra rows after ``n`` with state kept, so the next `replace`
+        finds them by key."""
+        m = len(key)
+        if m == 0:
+            return
+        need = self.n + m
+        if need > self.capacity:
+            keep = (self.i[: self.n].copy(), self.j[: self.n].copy(), self.key[: self.n].copy(),
+                    self.state[: self.n].copy(), self.params[: self.n].copy(), self.history[: self.n].copy())
+            self._alloc(int(need * 1.3) + 16)
+            for arr, val in zip((self.i, self.j, self.key, self.state, self.params, self.history), keep):
+                arr[: self.n] = val
+        sl = slice(self.n, need)
+        self.key[sl], self.state[sl], self.params[sl], self.history[sl] = key, state, params, history
+        self.i[sl] = -1
+        self.j[sl] = -1
+        self.n = need
+
+    def bytes(self):
+        return sum(a.nbytes for a in (self.i, self.j, self.key, self.state, self.params, self.history,
+                                      self.force, self.torque_i, self.torque_j, self.overlap))
+
+
+@njit(cache=True)
+def _hash_slot(key, mask):
+    h = (key * 0x9E3779B97F4A7C15) & 0x7FFFFFFFFFFFFFFF
+    return (h >> 17) & mask
+
+
+@njit(cache=True)
+def carry_history(n_old, old_key, old_state, old_params, old_hist, n_new, new_key, new_state, new_params, new_hist):
+    """Copy state/params/history of the real contacts among the old rows to the new rows with
+    the same key (open-addressing hash on the key; O(n))."""
+    n_real = 0
+    for p in range(n_old):
+        if old_state[p] == 1:
+            n_real += 1
+    if n_real == 0:
+        return
+    size = 1
+    while size < 2 * n_real:
+        size *= 2
+    mask = size - 1
+    table = np.full(size, -1, np.int64)
+    for p in range(n_old):
+        if old_state[p] != 1:
+            continue
+        s = _hash_slot(old_key[p], mask)
+        while table[s] >= 0:
+            s = (s + 1) & mask
+        table[s] = p
+    for q in range(n_new):
+        k = new_key[q]
+        s = _hash_slot(k, mask)
+        while table[s] >= 0:
+            p = table[s]
+            if old_key[p] == k:
+                new_state[q] = 1
+                new_params[q, :] = old_params[p, :]
+                new_hist[q, :] = old_hist[p, :]
+                break
+            s = (s + 1) & mask
+
+
+@njit(cache=True)
+def sphere_pair_keys(i, j, gid):
+    out = np.empty(i.shape[0], np.int64)
+    for p in range(i.shape[0]):
+        out[p] = (gid[i[p]] << 32) | gid[j[p]]
+    return out
+
+
+@njit(cache=True)
+def index_pair_keys(i, j, gid):
+    out = np.empty(i.shape[0], np.int64)
+    for p in range(i.shape[0]):
+        out[p] = (gid[i[p]] << 20) | j[p]
+    return out

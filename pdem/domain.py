@@ -1,0 +1,25 @@
+"""The serial domain: the interface the step loop uses to talk to other ranks, for one rank.
+
+`pdem.parallel.slab_domain.SlabDomain` implements the same methods over MPI. The simulation
+calls only these; physics code never knows its rank.
+"""
+
+
+class SerialDomain:
+    """One rank owns everything: no ghosts, no migration; global reductions are local."""
+
+    def __init__(self, comm):
+        self.comm = comm
+        self.comm_seconds = 0.0
+
+    def halo_width(self):
+        return 0.0
+
+    def rebuild(self, sim):
+        """Migrate bodies and rebuild ghosts before a neighbour-list rebuild (nothing to do)."""
+
+    def update_ghosts(self, particles):
+        """Refresh ghost positions/velocities/spins every step (nothing to do)."""
+
+    def halo_fraction(self, particles):
+        return 0.0

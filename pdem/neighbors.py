@@ -1,0 +1,250 @@
+"""Neighbour search: linked cells plus a Verlet list with a skin (njit).
+
+Candidates are pairs closer than r_i + r_j + skin; the list is rebuilt only when some body has
+moved more than skin/2 since the last rebuild (then no contact can be missed). A sphere–sphere
+pair is listed once, with ``gid[i] < gid[j]``, and only if at least one of the two is owned
+(rows < n_local); ghost–ghost pairs belong to other ranks. Within each first body the partners
+are sorted by gid, so the list does not depend on row order. Walls and facets get candidate lists
+per owned sphere in index order.
+"""
+from math import floor, sqrt
+
+import numpy as np
+from numba import njit, prange
+
+from .kernels import kernel
+from .vec import dot3
+
+
+@njit(cache=True)
+def bin_cells(pos, n, cell_size, max_cells):
+    """Counting sort of rows [0, n) into a grid over their bounding box.
+
+    Returns (lo[3], dims[3], cell_size, cell_start[ncell+1], cell_items[n])."""
+    lo = np.empty(3)
+    hi = np.empty(3)
+    for a in range(3):
+        lo[a] = np.inf
+        hi[a] = -np.inf
+    for k in range(n):
+        for a in range(3):
+            lo[a] = min(lo[a], pos[k, a])
+            hi[a] = max(hi[a], pos[k, a])
+    dims = np.ones(3, np.int64)
+    while True:
+        total = 1
+        for a in range(3):
+            dims[a] = max(1, int(floor((hi[a] - lo[a]) / cell_size)) + 1) if n > 0 else 1
+            total *= dims[a]
+        if total <= max_cells:
+            break
+        cell_size *= 1.26
+    cell_of = np.empty(n, np.int64)
+    counts = np.zeros(total + 1, np.int64)
+    for k in range(n):
+        c = 0
+        for a in range(3):
+            ia = min(int((pos[k, a] - lo[a]) / cell_size), dims[a] - 1)
+            c = c * dims[a] + ia
+        cell_of[k] = c
+        counts[c + 1] += 1
+    for c in range(total):
+        counts[c + 1] += counts[c]
+    fill = counts[:-1].copy()
+    items = np.empty(n, np.int64)
+    for k in range(n):
+        c = cell_of[k]
+        items[fill[c]] = k
+        fill[c] += 1
+    return lo, dims, cell_size, counts, items
+
+
+@njit(inline="always", cache=True)
+def _scan(i, pos, radius, gid, n_local, skin, lo, dims, cell_size, cell_start, cell_items, out, write):
+    """Count (write=False) or write into `out` the partners j of body i."""
+    cnt = 0
+    ci0 = min(int((pos[i, 0] - lo[0]) / cell_size), dims[0] - 1)
+    ci1 = min(int((pos[i, 1] - lo[1]) / cell_size), dims[1] - 1)
+    ci2 = min(int((pos[i, 2] - lo[2]) / cell_size), dims[2] - 1)
+    for ox in range(-1, 2):
+        cx = ci0 + ox
+        if cx < 0 or cx >= dims[0]:
+            continue
+        for oy in range(-1, 2):
+            cy = ci1 + oy
+            if cy < 0 or cy >= dims[1]:
+                continue
+            for oz in range(-1, 2):
+                cz = ci2 + oz
+                if cz < 0 or cz >= dims[2]:
+                    continue
+                c = (cx * dims[1] + cy) * dims[2] + cz
+                for k in range(cell_start[c], cell_start[c + 1]):
+                    j = cell_items[k]
+                    if gid[j] <= gid[i]:
+                        continue
+                    if i >= n_local and j >= n_local:
+                        continue
+                    dx = pos[j, 0] - pos[i, 0]
+                    dy = pos[j, 1] - pos[i, 1]
+                    dz = pos[j, 2] - pos[i, 2]
+                    cut = radius[i] + radius[j] + skin
+                    if dot3(dx, dy, dz, dx, dy, dz) <= cut * cut:
+                        if write:
+                            out[cnt] = j
+                        cnt += 1
+    return cnt
+
+
+@kernel(size_arg=4)
+def build_sphere_pairs(pos, radius, gid, n_local, n_total, skin, cell_size, max_cells):
+    """Verlet list (pi, pj) over rows [0, n_total); partners of each i sorted by gid."""
+    lo, dims, cs, cell_start, cell_items = bin_cells(pos, n_total, cell_size, max_cells)
+    dummy = np.empty(0, np.int64)
+    counts = np.zeros(n_total + 1, np.int64)
+    for i in prange(n_total):
+        counts[i + 1] = _scan(i, pos, radius, gid, n_local, skin, lo, dims, cs, cell_start, cell_items, dummy, False)
+    for i in range(n_total):
+        counts[i + 1] += counts[i]
+    m = counts[n_total]
+    pi = np.empty(m, np.int64)
+    pj = np.empty(m, np.int64)
+    for i in prange(n_total):
+        a = counts[i]
+        b = counts[i + 1]
+        _scan(i, pos, radius, gid, n_local, skin, lo, dims, cs, cell_start, cell_items, pj[a:b], True)
+        for k in range(a, b):
+            pi[k] = i
+        # insertion sort of the partners by gid
+        for k in range(a + 1, b):
+            v = pj[k]
+            g = gid[v]
+            q = k - 1
+            while q >= a and gid[pj[q]] > g:
+                pj[q + 1] = pj[q]
+                q -= 1
+            pj[q + 1] = v
+    return pi, pj
+
+
+@njit(cache=True)
+def build_incidence(n_local, n_pairs, pi, pj, gid):
+    """Per owned body, its sphere pairs sorted by partner gid (CSR).
+
+    Returns (ptr[n_local+1], pair[m], first[m]) with first = 1 where the body is pair's i."""
+    ptr = np.zeros(n_local + 1, np.int64)
+    for p in range(n_pairs):
+        if pi[p] < n_local:
+            ptr[pi[p] + 1] += 1
+        if pj[p] < n_local:
+            ptr[pj[p] + 1] += 1
+    for b in range(n_local):
+        ptr[b + 1] += ptr[b]
+    m = ptr[n_local]
+    pair = np.empty(m, np.int64)
+    first = np.empty(m, np.int8)
+    fill = ptr[:-1].copy()
+    for p in range(n_pairs):
+        i = pi[p]
+        j = pj[p]
+        if i < n_local:
+            pair[fill[i]] = p
+            first[fill[i]] = 1
+            fill[i] += 1
+        if j < n_local:
+            pair[fill[j]] = p
+            first[fill[j]] = 0
+            fill[j] += 1
+    for b in range(n_local):
+        a = ptr[b]
+        e = ptr[b + 1]
+        for k in range(a + 1, e):
+            vp = pair[k]
+            vf = first[k]
+            g = gid[pj[vp]] if vf == 1 else gid[pi[vp]]
+            q = k - 1
+            while q >= a:
+                gq = gid[pj[pair[q]]] if first[q] == 1 else gid[pi[pair[q]]]
+                if gq <= g:
+                    break
+                pair[q + 1] = pair[q]
+                first[q + 1] = first[q]
+                q -= 1
+            pair[q + 1] = vp
+            first[q + 1] = vf
+    return ptr, pair, first
+
+
+@njit(cache=True)
+def build_wall_candidates(pos, radius, n_local, skin, wall_axis, wall_pos):
+    """(ptr[n_local+1], sphere[m], wall[m]): walls within r + skin of each owned sphere."""
+    nw = wall_axis.shape[0]
+    ptr = np.zeros(n_local + 1, np.int64)
+    for s in range(n_local):
+        c = 0
+        for w in range(nw):
+            if abs(pos[s, wall_axis[w]] - wall_pos[w]) <= radius[s] + skin:
+                c += 1
+        ptr[s + 1] = ptr[s] + c
+    m = ptr[n_local]
+    ps = np.empty(m, np.int64)
+    pw = np.empty(m, np.int64)
+    k = 0
+    for s in range(n_local):
+        for w in range(nw):
+            if abs(pos[s, wall_axis[w]] - wall_pos[w]) <= radius[s] + skin:
+                ps[k] = s
+                pw[k] = w
+                k += 1
+    return ptr, ps, pw
+
+
+@njit(inline="always", cache=True)
+def _near_facet(px, py, pz, reach, g, verts):
+    """Distance from a point to the triangle's plane and bounding box within `reach`."""
+    d = abs(dot3(g[3], g[4], g[5], px - g[0], py - g[1], pz - g[2]))
+    if d > reach:
+        return False
+    for a in range(3):
+        lo = min(verts[0, a], min(verts[1, a], verts[2, a]))
+        hi = max(verts[0, a], max(verts[1, a], verts[2, a]))
+        x = px if a == 0 else (py if a == 1 else pz)
+        if x < lo - reach or x > hi + reach:
+            return False
+    return True
+
+
+@njit(cache=True)
+def build_facet_candidates(pos, radius, n_local, skin, facet_geom, facet_vertices):
+    """(ptr[n_local+1], sphere[m], facet[m]): facets within r + skin of each owned sphere."""
+    nf = facet_geom.shape[0]
+    ptr = np.zeros(n_local + 1, np.int64)
+    for s in range(n_local):
+        c = 0
+        for f in range(nf):
+            if _near_facet(pos[s, 0], pos[s, 1], pos[s, 2], radius[s] + skin, facet_geom[f], facet_vertices[f]):
+                c += 1
+        ptr[s + 1] = ptr[s] + c
+    m = ptr[n_local]
+    ps = np.empty(m, np.int64)
+    pf = np.empty(m, np.int64)
+    k = 0
+    for s in range(n_local):
+        for f in range(nf):
+            if _near_facet(pos[s, 0], pos[s, 1], pos[s, 2], radius[s] + skin, facet_geom[f], facet_vertices[f]):
+                ps[k] = s
+                pf[k] = f
+                k += 1
+    return ptr, ps, pf
+
+
+@kernel(size_arg=2)
+def max_displacement(pos, pos_at_rebuild, n):
+    """Largest distance a body moved since the last rebuild [m]."""
+    m = 0.0
+    for k in prange(n):
+        dx = pos[k, 0] - pos_at_rebuild[k, 0]
+        dy = pos[k, 1] - pos_at_rebuild[k, 1]
+        dz = pos[k, 2] - pos_at_rebuild[k, 2]
+        m = max(m, dx * dx + dy * dy + dz * dz)
+    return sqrt(m)

@@ -1,0 +1,54 @@
+"""Global scalar observables of a running simulation, reduced so that they do not depend on
+the rank count (exact sums, max/min reductions).
+
+- unbalanced force ratio: mean over free bodies of |F + m g| divided by the mean contact force
+  magnitude (Yade's ``unbalancedForce``) [-]
+- wall forces: total force of the spheres on each wall [N] (exact sums over contacts)
+- top of the bed: max over spheres of z + r [m]
+"""
+import numpy as np
+
+
+def wall_forces(sim):
+    """[n_walls, 3] total force exerted by the spheres on each wall [N]."""
+    nw = len(sim.walls)
+    if sim.sw is None:
+        return np.zeros((nw, 3))
+    cl = sim.sw
+    rows = cl.real_rows()
+    out = np.zeros((nw, 3))
+    for w in range(nw):
+        sel = rows[cl.j[rows] == w]
+        out[w] = -sim.comm.exact_sum_rows(np.ascontiguousarray(cl.force[sel])) if len(sel) else -sim.comm.exact_sum_rows(np.zeros((0, 3)))
+    return out
+
+
+def unbalanced_force(sim):
+    p = sim.particles
+    nl = p.n_local
+    free = p.blocked[:nl] != 63
+    net = p.force[:nl][free] + p.mass[:nl][free, None] * sim.gravity
+    body = np.linalg.norm(net, axis=1)
+    mags = []
+    for cl in (sim.ss, sim.sw, sim.sf):
+        if cl is None:
+            continue
+        rows = cl.real_rows()
+        if cl is sim.ss:
+            rows = rows[cl.i[rows] < nl]
+        mags.append(np.linalg.norm(cl.force[rows], axis=1))
+    mags = np.concatenate(mags) if mags else np.zeros(0)
+    n_body = sim.comm.allreduce_sum_int(int(free.sum()))
+    n_cont = sim.comm.allreduce_sum_int(len(mags))
+    if n_cont == 0 or n_body == 0:
+        return 1.0
+    mean_body = sim.comm.exact_sum(body) / n_body
+    mean_contact = sim.comm.exact_sum(mags) / n_cont
+    return mean_body / mean_contact if mean_contact > 0 else 1.0
+
+
+def bed_top(sim):
+    p = sim.particles
+    nl = p.n_local
+    local = float(np.max(p.pos[:nl, 2] + p.radius[:nl])) if nl else -np.inf
+    return sim.comm.allreduce_max(local)

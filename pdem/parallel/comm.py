@@ -1,0 +1,367 @@
+"""Communicators: the one place where pdem talks to MPI.
+
+Owns: ``SerialComm`` and ``MpiComm`` (the same small interface: rank, size, barrier, bcast,
+reductions, exact sums, row gathers, the neighbour exchange of a 1-D chain of slabs, abort),
+``get_comm`` (MPI only when launched under mpiexec/srun with more than one rank) and the numba
+thread count per rank.  This is the ONLY module of pdem that imports mpi4py, and it does so
+lazily, inside ``MpiComm``/``get_comm``, so that ``import pdem.parallel`` works without MPI.
+Nothing here knows about particles: callers pass plain numpy arrays.
+
+Bulk data always travels as numpy buffers with uppercase mpi4py calls (``Allreduce``,
+``Gatherv``, ``Sendrecv``); only ``bcast`` (small configuration objects) and thread set-up
+pickle.  Floating-point sums that must not depend on the rank count go through ``exact_sum``:
+each rank fills a superaccumulator (``pdem.exactsum``) and the int64 limbs are summed with
+``MPI_Allreduce(SUM)``, which is exact and order independent, so every rank count gives the
+same bits.
+"""
+
+import os
+import sys
+
+import numpy as np
+
+from pdem import exactsum
+
+__all__ = ["SerialComm", "MpiComm", "get_comm", "threads_per_rank", "configure_threads"]
+
+# Environment variables through which launchers announce the number of ranks.
+_SIZE_VARS = ("PMI_SIZE", "OMPI_COMM_WORLD_SIZE", "MV2_COMM_WORLD_SIZE", "SLURM_STEP_NUM_TASKS")
+
+_TAG_LO = 71  # neighbour_exchange: messages travelling towards rank - 1
+_TAG_HI = 73  # ... towards rank + 1 (each uses tag and tag + 1)
+
+
+# --------------------------------------------------------------------------- helpers
+def _reduce_array(x, integer_only=False):
+    """``x`` as a 1-D contiguous float64 or int64 copy, and its original shape."""
+    a = np.asarray(x)
+    if a.dtype.kind in "biu":
+        dtype = np.int64
+    elif a.dtype.kind == "f" and not integer_only:
+        dtype = np.float64
+    else:
+        what = "an integer" if integer_only else "a real number"
+        raise TypeError(f"expected {what} or an array of them, got dtype {a.dtype}")
+    return np.array(a, dtype=dtype).reshape(-1), a.shape
+
+
+def _reduce_result(a, shape):
+    """A Python scalar for a scalar input, else an array of the input's shape."""
+    return a[0].item() if shape == () else a.reshape(shape)
+
+
+_MAX_NDIM = 4  # row arrays: 1-D .. 4-D (rows first)
+_META = 3 + _MAX_NDIM  # [nrows, ndim, dtype char, trailing dims..., -1 padding]
+
+
+def _rows_array(array):
+    """Validate a row array (rows along axis 0); return it contiguous and its layout message."""
+    a = np.ascontiguousarray(array)
+    if not 1 <= a.ndim <= _MAX_NDIM:
+        raise ValueError(f"row arrays must have 1 to {_MAX_NDIM} dimensions, got shape {a.shape}")
+    if a.dtype.kind not in "biuf":
+        raise TypeError(f"row arrays must have a numeric dtype, got {a.dtype}")
+    meta = np.full(_META, -1, dtype=np.int64)
+    meta[0], meta[1], meta[2] = a.shape[0], a.ndim, ord(a.dtype.char)
+    meta[3 : 2 + a.ndim] = a.shape[1:]
+    return a, meta
+
+
+def _empty_rows(meta, nrows=0):
+    """An uninitialised array with ``nrows`` rows and the layout (ndim, dtype, trailing) of meta."""
+    ndim = int(meta[1])
+    shape = (int(nrows),) + tuple(int(d) for d in meta[3 : 2 + ndim])
+    return np.empty(shape, dtype=np.dtype(chr(int(meta[2]))))
+
+
+def _cpu_set():
+    try:
+        return frozenset(os.sched_getaffinity(0))
+    except (AttributeError, OSError):  # not Linux
+        return frozenset(range(os.cpu_count() or 1))
+
+
+# --------------------------------------------------------------------------- serial
+class SerialComm:
+    """One rank, no MPI: collectives return their local result.
+
+    ``neighbor_exchange`` receives nothing (a single non-periodic slab); ``gather_rows`` and
+    ``allgather_rows`` return a copy.  Results have the same types as with ``MpiComm``.
+    """
+
+    rank = 0
+    size = 1
+
+    def __repr__(self):
+        return "SerialComm()"
+
+    def barrier(self):
+        pass
+
+    def bcast(self, obj, root=0):
+        return obj
+
+    def allreduce_max(self, x):
+        a, shape = _reduce_array(x)
+        return _reduce_result(a, shape)
+
+    def allreduce_min(self, x):
+        a, shape = _reduce_array(x)
+        return _reduce_result(a, shape)
+
+    def allreduce_sum_int(self, x):
+        a, shape = _reduce_array(x, integer_only=True)
+        return _reduce_result(a, shape)
+
+    def any_flag(self, flag):
+        return bool(flag)
+
+    def exact_sum(self, values):
+        v = np.ascontiguousarray(values, dtype=np.float64).reshape(-1)
+        return float(exactsum.exact_sum(v))
+
+    def exact_sum_rows(self, values):
+        v = np.ascontiguousarray(values, dtype=np.float64)
+        if v.ndim != 2:
+            raise ValueError(f"exact_sum_rows needs a 2-D array, got shape {v.shape}")
+        return exactsum.exact_sum_rows(v)
+
+    def gather_rows(self, array, root=0):
+        a, _ = _rows_array(array)
+        return a.copy()
+
+    def allgather_rows(self, array):
+        a, _ = _rows_array(array)
+        return a.copy()
+
+    def neighbor_exchange(self, send_lo, send_hi):
+        lo, mlo = _rows_array(send_lo)
+        hi, mhi = _rows_array(send_hi)
+        return _empty_rows(mlo), _empty_rows(mhi)
+
+    def node_allgather(self, obj):
+        """Objects from every rank on this node (pickled; set-up only)."""
+        return [obj]
+
+    def abort(self, message):
+        """Print ``message`` on stderr and exit with status 1 (``SystemExit``)."""
+        sys.stderr.write(f"{message}\n")
+        sys.stderr.flush()
+        raise SystemExit(1)
+
+
+# --------------------------------------------------------------------------- MPI
+class MpiComm:
+    """Wrap an mpi4py communicator (e.g. ``MPI.COMM_WORLD``) in the pdem interface.
+
+    Ranks form a 1-D chain for ``neighbor_exchange``: rank - 1 is "lo", rank + 1 is "hi".
+    """
+
+    def __init__(self, mpi4py_comm):
+        from mpi4py import MPI  # the only mpi4py import in pdem
+
+        self._MPI = MPI
+        self.comm = mpi4py_comm
+        self.rank = mpi4py_comm.Get_rank()
+        self.size = mpi4py_comm.Get_size()
+        null = MPI.PROC_NULL
+        self._lo = self.rank - 1 if self.rank > 0 else null
+        self._hi = self.rank + 1 if self.rank < self.size - 1 else null
+        self._node = None
+
+    def __repr__(self):
+        return f"MpiComm(rank={self.rank}, size={self.size})"
+
+    # ---- simple collectives
+    def barrier(self):
+        self.comm.Barrier()
+
+    def bcast(self, obj, root=0):
+        """Broadcast a small picklable object (configuration, paths) from ``root``."""
+        return self.comm.bcast(obj, root=root)
+
+    def _allreduce(self, x, op, integer_only=False):
+        a, shape = _reduce_array(x, integer_only)
+        out = np.empty_like(a)
+        self.comm.Allreduce(a, out, op=op)
+        return _reduce_result(out, shape)
+
+    def allreduce_max(self, x):
+        """Element-wise maximum over ranks (float64 for reals, int64 for integers/bools)."""
+        return self._allreduce(x, self._MPI.MAX)
+
+    def allreduce_min(self, x):
+        """Element-wise minimum over ranks."""
+        return self._allreduce(x, self._MPI.MIN)
+
+    def allreduce_sum_int(self, x):
+        """Sum of integers over ranks (int64; floats are refused: use ``exact_sum``)."""
+        return self._allreduce(x, self._MPI.SUM, integer_only=True)
+
+    def any_flag(self, flag):
+        """True on every rank if ``flag`` is true on any rank."""
+        return bool(self._allreduce(int(bool(flag)), self._MPI.MAX))
+
+    # ---- exact sums
+    def exact_sum(self, values):
+        """Correctly rounded sum of all ranks' ``values``; the same bits on any rank count."""
+        v = np.ascontiguousarray(values, dtype=np.float64).reshape(-1)
+        acc = exactsum.exact_sum_acc(v)
+        total = np.empty_like(acc)
+        self.comm.Allreduce(acc, total, op=self._MPI.SUM)
+        return float(exactsum.acc_value(total))
+
+    def exact_sum_rows(self, values):
+        """Column sums of all ranks' ``values[n_local, k]`` (same ``k`` everywhere): ``[k]``."""
+        v = np.ascontiguousarray(values, dtype=np.float64)
+        if v.ndim != 2:
+            raise ValueError(f"exact_sum_rows needs a 2-D array, got shape {v.shape}")
+        accs = exactsum.exact_sum_rows_acc(v)
+        total = np.empty_like(accs)
+        self.comm.Allreduce(accs, total, op=self._MPI.SUM)
+        return exactsum.acc_values(total)
+
+    # ---- gathers
+    def _row_layout(self, array):
+        a, meta = _rows_array(array)
+        metas = np.empty((self.size, _META), dtype=np.int64)
+        self.comm.Allgather(meta, metas)
+        if not np.all(metas[:, 1:] == metas[0, 1:]):
+            # Every rank sees the same table, so every rank raises: no rank is left waiting.
+            layouts = [(_empty_rows(m, m[0]).shape, chr(int(m[2]))) for m in metas]
+            raise ValueError(f"row arrays differ in trailing shape or dtype over ranks: {layouts}")
+        rowsize = int(np.prod(a.shape[1:], dtype=np.int64))
+        counts = metas[:, 0] * rowsize
+        return a, meta, metas[:, 0], counts
+
+    def gather_rows(self, array, root=0):
+        """Rows of every rank concatenated in rank order on ``root``; ``None`` elsewhere.
+
+        ``array`` has rows along axis 0 (1-D to 4-D) and any numeric dtype; the trailing shape
+        and dtype must agree on all ranks (an empty array still needs them), else every rank
+        raises ``ValueError``.
+        """
+        a, meta, nrows, counts = self._row_layout(array)
+        if self.rank == root:
+            out = _empty_rows(meta, nrows.sum())
+            self.comm.Gatherv(a, [out, counts], root=root)
+            return out
+        self.comm.Gatherv(a, None, root=root)
+        return None
+
+    def allgather_rows(self, array):
+        """Rows of every rank concatenated in rank order, on every rank."""
+        a, meta, nrows, counts = self._row_layout(array)
+        out = _empty_rows(meta, nrows.sum())
+        self.comm.Allgatherv(a, [out, counts])
+        return out
+
+    # ---- neighbours
+    def _shift(self, send, dest, source, tag):
+        """Send ``send`` to ``dest`` and receive the array ``source`` sends: size message first."""
+        a, meta = _rows_array(send)
+        rmeta = meta.copy()
+        rmeta[0] = 0  # kept if source is PROC_NULL: no rows, this rank's own layout
+        self.comm.Sendrecv(meta, dest, tag, rmeta, source, tag)
+        recv = _empty_rows(rmeta, rmeta[0])
+        self.comm.Sendrecv(a, dest, tag + 1, recv, source, tag + 1)
+        return recv
+
+    def neighbor_exchange(self, send_lo, send_hi):
+        """Exchange rows with the neighbouring slabs of a 1-D chain of ranks.
+
+        Parameters
+        ----------
+        send_lo, send_hi : numeric arrays, rows along axis 0 (typically 2-D float64 or int64)
+            Rows for rank - 1 and rank + 1 (ignored at the ends of the chain).
+
+        Returns
+        -------
+        recv_from_lo, recv_from_hi : arrays
+            What rank - 1 sent as its ``send_hi`` and rank + 1 as its ``send_lo``; empty arrays
+            (with this rank's own column count and dtype) at the ends of the chain.
+        """
+        recv_from_hi = self._shift(send_lo, self._lo, self._hi, _TAG_LO)
+        recv_from_lo = self._shift(send_hi, self._hi, self._lo, _TAG_HI)
+        return recv_from_lo, recv_from_hi
+
+    # ---- node, abort
+    def node_allgather(self, obj):
+        """Objects from every rank on this node (shared-memory split; pickled, set-up only)."""
+        if self._node is None:
+            self._node = self.comm.Split_type(self._MPI.COMM_TYPE_SHARED, key=self.rank)
+        return self._node.allgather(obj)
+
+    def abort(self, message):
+        """Print ``message`` on stderr, flush, and ``MPI_Abort(1)`` the whole job."""
+        sys.stderr.write(f"[rank {self.rank}/{self.size}] {message}\n")
+        sys.stderr.flush()
+        sys.stdout.flush()
+        self.comm.Abort(1)
+
+
+# --------------------------------------------------------------------------- factory
+def _launched_size():
+    """Rank count announced by the launcher's environment (1 if none)."""
+    for var in _SIZE_VARS:
+        value = os.environ.get(var)
+        if value:
+            try:
+                return int(value)
+            except ValueError:
+                continue
+    return 1
+
+
+def get_comm(comm=None):
+    """The communicator to run on.
+
+    Parameters
+    ----------
+    comm : None, SerialComm, MpiComm or an mpi4py communicator
+        ``None`` detects: ``MpiComm(MPI.COMM_WORLD)`` if mpi4py is already initialised (e.g.
+        ``python -m mpi4py``) or a launcher (MPICH Hydra ``PMI_SIZE``, Open MPI, MVAPICH, srun)
+        announces more than one rank, and that world has more than one rank; otherwise
+        ``SerialComm()``.  mpi4py is imported only in those cases.
+    """
+    if isinstance(comm, (SerialComm, MpiComm)):
+        return comm
+    if comm is not None:
+        return MpiComm(comm)
+    mpi = sys.modules.get("mpi4py.MPI")
+    if mpi is None:
+        if _launched_size() <= 1:
+            return SerialComm()
+        from mpi4py import MPI as mpi
+    world = mpi.COMM_WORLD
+    if world.Get_size() > 1:
+        return MpiComm(world)
+    return SerialComm()
+
+
+def threads_per_rank(comm=None):
+    """Numba threads for this rank: its cores divided among the ranks of the node sharing them.
+
+    Cores are this process's CPU affinity set (``os.sched_getaffinity``).  Ranks on the same
+    node (MPI shared-memory split) whose affinity sets overlap this one share it evenly, so an
+    unbound launch of P ranks on C cores gives C // P and a launch binding each rank to its own
+    cores gives all of them.  At least 1.
+    """
+    comm = get_comm(comm)
+    mine = _cpu_set()
+    sets = comm.node_allgather(mine)
+    sharers = max(1, sum(1 for s in sets if s & mine))
+    return max(1, len(mine) // sharers)
+
+
+def configure_threads(comm=None):
+    """``numba.set_num_threads(threads_per_rank(comm))``, capped at NUMBA_NUM_THREADS.
+
+    Returns the number set.  (Job scripts should also export NUMBA_NUM_THREADS so that idle
+    pool threads are not started; see TOOLCHAIN.md.)
+    """
+    import numba
+
+    n = min(threads_per_rank(comm), int(numba.config.NUMBA_NUM_THREADS))
+    numba.set_num_threads(max(1, n))
+    return max(1, n)

@@ -1,0 +1,146 @@
+"""Running a scene file: output, progress, signals, checkpoints, final timing table and plot.
+
+`run_scene_file(path, out_dir)` is what ``python -m pdem run`` calls on every rank. It writes to
+`out_dir`: ``results.h5`` (schema pdem-results v1: /series of time, energies, contacts,
+unbalanced force, wall forces), ``snapshots.h5``/``.xmf`` if the scene asks, checkpoints in
+``checkpoints/`` if asked, ``results.png`` and ``summary.txt``. SIGTERM/SIGUSR1 make all ranks
+agree, write a checkpoint and exit with status 3 (`pdem.io.signals`).
+"""
+import json
+import sys
+import time as _time
+from pathlib import Path
+
+import numpy as np
+
+from . import __version__, observables
+from .config import load_scene
+from .io.signals import EXIT_CHECKPOINTED_ON_SIGNAL, install_signal_handlers
+from .io.snapshots import SnapshotWriter
+from .io.timeseries import TimeSeriesWriter
+from .parallel.comm import configure_threads, get_comm
+
+SERIES = {"step": "-", "time": "s", "dt": "s", "kinetic_energy": "J", "elastic_energy": "J",
+          "contacts_per_particle": "-", "unbalanced_force": "-", "bed_top": "m", "floor_force_z": "N"}
+
+
+def _log(comm, *args):
+    if comm.rank == 0:
+        print(*args, flush=True)
+
+
+def sample(sim):
+    e = sim.energy()
+    wf = observables.wall_forces(sim)
+    return {"step": sim.step, "time": sim.time, "dt": sim.dt, "kinetic_energy": e["kinetic"] + e["rotational"],
+            "elastic_energy": e["elastic"], "contacts_per_particle": sim.contacts_per_particle(),
+            "unbalanced_force": observables.unbalanced_force(sim), "bed_top": observables.bed_top(sim),
+            "floor_force_z": float(wf[0, 2]) if len(wf) else 0.0}
+
+
+def write_root_attrs(path, scene_spec, kind):
+    import h5py
+
+    with h5py.File(path, "a") as f:
+        f.attrs["scene"] = json.dumps(scene_spec)
+        f.attrs["pdem_version"] = __version__
+        f.attrs["kind"] = kind
+
+
+def plot_series(results_path, png_path):
+    import h5py
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    with h5py.File(results_path, "r") as f:
+        s = {k: f["series"][k][...] for k in f["series"]}
+    fig, ax = plt.subplots(2, 2, figsize=(10, 7), sharex=True)
+    t = s["time"]
+    ax[0, 0].semilogy(t, np.maximum(s["kinetic_energy"], 1e-30))
+    ax[0, 0].set_ylabel("kinetic energy [J]")
+    ax[0, 1].plot(t, s["contacts_per_particle"])
+    ax[0, 1].set_ylabel("contacts per particle [-]")
+    ax[1, 0].semilogy(t, np.maximum(s["unbalanced_force"], 1e-12))
+    ax[1, 0].set_ylabel("unbalanced force ratio [-]")
+    ax[1, 1].plot(t, s["floor_force_z"])
+    ax[1, 1].set_ylabel("force on the floor, z [N]")
+    for a in ax[1]:
+        a.set_xlabel("time [s]")
+    fig.tight_layout()
+    fig.savefig(png_path, dpi=110)
+    plt.close(fig)
+
+
+def run_scene_file(path, out_dir, steps=None):
+    """Run the scene file on this process's ranks; returns the exit status."""
+    comm = get_comm()
+    configure_threads(comm)
+    scene, run, _doc = load_scene(path)
+    out = Path(out_dir)
+    if comm.rank == 0:
+        out.mkdir(parents=True, exist_ok=True)
+    comm.barrier()
+    t_start = _time.perf_counter()
+    sim = scene.build(comm)
+    n_total = comm.allreduce_sum_int(sim.particles.n_local)
+    n_steps = run["steps"] if steps is None else steps
+    _log(comm, f"pdem {__version__}: {path} on {comm.size} rank(s), {n_total} spheres, {len(sim.walls)} walls, "
+               f"{len(sim.facets)} facets, {n_steps} steps, dt = {sim.dt:.3e} s")
+    results = out / "results.h5"
+    series = TimeSeriesWriter(results, SERIES, every=10, comm=comm)
+    if comm.rank == 0:
+        write_root_attrs(results, sim.spec, run["kind"])
+    snaps = SnapshotWriter(out, comm=comm) if run["snapshot_every"] else None
+    stop = install_signal_handlers()
+    wall0 = _time.perf_counter()
+    status = 0
+
+    def snapshot():
+        p = sim.particles
+        nl = p.n_local
+        snaps.write(sim.step, sim.time, p.gid[:nl], p.pos[:nl], p.radius[:nl], p.vel[:nl])
+
+    series.append(sample(sim))
+    if snaps:
+        snapshot()
+    for _ in range(n_steps):
+        sim.advance()
+        k = sim.step
+        t0 = _time.perf_counter()
+        if run["output_every"] and k % run["output_every"] == 0:
+            series.append(sample(sim))
+        if snaps and k % run["snapshot_every"] == 0:
+            snapshot()
+        if run["progress_every"] and k % run["progress_every"] == 0:
+            el = _time.perf_counter() - wall0
+            rate = n_total * k / el if el > 0 else 0.0
+            eta = el / k * (n_steps - k)
+            _log(comm, f"step {k:>9d}  t = {sim.time:.5e} s  dt = {sim.dt:.3e} s  contacts/particle = "
+                       f"{sim.contacts_per_particle():.2f}  {rate / 1e6:.2f} M particle-steps/s  ETA {eta:.0f} s")
+        sim.timers.add("output", t0)
+        if k % 100 == 0 and stop.stop_requested(comm):
+            _log(comm, f"step {k}: stop signal received; stopping (exit status {EXIT_CHECKPOINTED_ON_SIGNAL})")
+            status = EXIT_CHECKPOINTED_ON_SIGNAL
+            break
+    series.close()
+    loop_s = _time.perf_counter() - wall0
+    if comm.rank == 0:
+        plot_series(results, out / "results.png")
+        last = sample_text = None
+    last = sample(sim)
+    if comm.rank == 0:
+        rate = n_total * (sim.step) / loop_s if loop_s > 0 else 0.0
+        summary = [f"scene: {path}", f"ranks: {comm.size}", f"spheres: {n_total}", f"steps: {sim.step}",
+                   f"simulated time: {sim.time:.6g} s", f"final dt: {sim.dt:.4g} s",
+                   f"contacts per particle: {last['contacts_per_particle']:.3f}",
+                   f"unbalanced force ratio: {last['unbalanced_force']:.4g}", f"bed top: {last['bed_top']:.5g} m",
+                   f"force on floor z: {last['floor_force_z']:.6g} N", f"loop wall time: {loop_s:.2f} s",
+                   f"throughput: {rate / 1e6:.3f} M particle-steps/s", "", sim.timing_table()]
+        (out / "summary.txt").write_text("\n".join(summary) + "\n")
+        print("\n".join(summary[-2 - sim.timing_table().count('\n'):]), flush=True)
+        print(f"wrote {results}, {out / 'results.png'}, {out / 'summary.txt'}"
+              f"{', snapshots.xmf' if snaps else ''} (total {_time.perf_counter() - t_start:.1f} s)", flush=True)
+    stop.uninstall()
+    return status

@@ -1,0 +1,204 @@
+"""Scene: what a simulation declares (materials, bodies, boundaries, loads) and `build()`.
+
+Only what a scene declares is built and run: a scene without walls has no wall contact list and
+never compiles the wall kernel, a scene without damping runs the undamped integrator. Every input
+is checked here, and bad input raises `InputError` with one line naming the field, the value and
+what is allowed.
+
+Example (thesis appendix A, SPEC.md 2.1)::
+
+    scene = Scene(dt=2e-6, damping=0.1, gravity=(0, 0, -9.81))
+    pvc = scene.material(density=1380, young=2.5e9, poisson=0.4, friction_angle=1.0)
+    steel = scene.material(density=7850, young=2.1e8, poisson=0.3, friction_angle=1.0)
+    scene.add_spheres([(0, 0, 0), (.01, .01, .2)], [.05, .03], [pvc, steel], fixed=[True, False])
+    sim = scene.build()
+    sim.run(82869)
+"""
+import json
+from math import pi
+
+import numpy as np
+
+from .domain import SerialDomain
+from .errors import InputError
+from .facets import Facets
+from .materials import Material, MaterialTable
+from .simulation import Simulation
+from .state import DOF_ALL, Particles
+from .walls import Walls
+
+
+def _number(label, value, lo=None, hi=None, lo_open=False, allow=""):
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise InputError(f"{label} = {value!r}: must be a number{(' ' + allow) if allow else ''}") from None
+    bad = not np.isfinite(v) or (lo is not None and (v <= lo if lo_open else v < lo)) or (hi is not None and v > hi)
+    if bad:
+        raise InputError(f"{label} = {value!r}: must be {allow or 'a finite number'}")
+    return v
+
+
+def _vectors(label, value, n=None):
+    a = np.asarray(value, dtype=np.float64)
+    if a.ndim == 1 and a.shape[0] == 3 and (n is None or n == 1):
+        a = a[None]
+    if a.ndim != 2 or a.shape[1] != 3 or (n is not None and a.shape[0] != n):
+        raise InputError(f"{label}: must be a list of {n if n is not None else 'N'} (x, y, z) triples, got shape {a.shape}")
+    if not np.all(np.isfinite(a)):
+        raise InputError(f"{label}: contains a value that is not finite")
+    return a
+
+
+class Scene:
+    """Declare a simulation; `build()` turns it into a `Simulation`."""
+
+    def __init__(self, *, dt="auto", damping=0.0, gravity=(0.0, 0.0, 0.0), skin=None, dt_safety=0.8, dt_interval=100,
+                 pwave_factor=0.5, check_interval=100, max_overlap_ratio=0.5, energy_check=True,
+                 allow_initial_overlap=False, slab_axis=0):
+        self.settings = {
+            "dt": dt if dt == "auto" or dt is None else _number("dt", dt, 0.0, lo_open=True, allow="'auto' or a number > 0 [s]"),
+            "damping": _number("damping", damping, 0.0, 0.99, allow="in [0, 0.99] (Cundall's lambda_D)"),
+            "gravity": _vectors("gravity", gravity, 1)[0].tolist(),
+            "skin": None if skin is None else _number("skin", skin, 0.0, lo_open=True, allow="a length > 0 [m]"),
+            "dt_safety": _number("dt_safety", dt_safety, 0.0, 1.0, lo_open=True, allow="in (0, 1]"),
+            "dt_interval": int(_number("dt_interval", dt_interval, 1, allow="an integer >= 1 [steps]")),
+            "pwave_factor": _number("pwave_factor", pwave_factor, 0.0, 1.0, lo_open=True, allow="in (0, 1]"),
+            "check_interval": int(_number("check_interval", check_interval, 1, allow="an integer >= 1 [steps]")),
+            "max_overlap_ratio": _number("max_overlap_ratio", max_overlap_ratio, 0.0, 1.0, lo_open=True, allow="in (0, 1]"),
+            "energy_check": bool(energy_check),
+            "allow_initial_overlap": bool(allow_initial_overlap),
+            "slab_axis": slab_axis,
+        }
+        if slab_axis not in (0, 1, 2):
+            raise InputError(f"slab_axis = {slab_axis!r}: must be 0, 1 or 2 (x, y, z)")
+        self.materials = MaterialTable()
+        self.material_names = []
+        self.walls = Walls()
+        self.facets = Facets()
+        self._spheres = []
+
+    # ------------------------------------------------------------------ declarations
+    def material(self, *, density, young, poisson, friction_angle, name=""):
+        """Add a material; returns its index. Units: kg/m³, Pa, -, rad."""
+        label = f"materials.{name}" if name else f"materials[{len(self.materials)}]"
+        m = Material(_number(f"{label}.density", density), _number(f"{label}.young", young),
+                     _number(f"{label}.poisson", poisson), _number(f"{label}.friction_angle", friction_angle), label)
+        self.material_names.append(name or str(len(self.materials)))
+        return self.materials.add(m)
+
+    def _material_index(self, label, m):
+        if isinstance(m, str):
+            if m not in self.material_names:
+                raise InputError(f"{label} = {m!r}: unknown material; defined: {', '.join(self.material_names) or 'none'}")
+            return self.material_names.index(m)
+        if not (isinstance(m, (int, np.integer)) and 0 <= m < len(self.materials)):
+            raise InputError(f"{label} = {m!r}: not a material index (0..{len(self.materials) - 1})")
+        return int(m)
+
+    def add_spheres(self, pos, radius, material, *, fixed=False, vel=None, angvel=None, blocked=None):
+        """Add spheres; returns their global ids. pos [m], radius [m], vel [m/s], angvel [rad/s].
+
+        `fixed` blocks every DOF (the body still moves with `vel`); `blocked` is a per-body string
+        of blocked DOFs from "xyzXYZ" (lowercase translations, uppercase rotations)."""
+        pos = _vectors("spheres.pos", pos)
+        n = len(pos)
+        r = np.broadcast_to(np.asarray(radius, np.float64), (n,)).copy()
+        if not np.all(np.isfinite(r) & (r > 0)):
+            k = int(np.flatnonzero(~(np.isfinite(r) & (r > 0)))[0])
+            raise InputError(f"spheres.radius[{k}] = {r[k]!r}: must be a finite number > 0 [m]")
+        mats = np.broadcast_to(np.asarray(material, dtype=object), (n,))
+        mat = np.array([self._material_index(f"spheres.material[{k}]", m) for k, m in enumerate(mats)], np.int64)
+        fixed = np.broadcast_to(np.asarray(fixed, bool), (n,))
+        mask = np.where(fixed, DOF_ALL, 0).astype(np.int64)
+        if blocked is not None:
+            for k, b in enumerate(np.broadcast_to(np.asarray(blocked, dtype=object), (n,))):
+                if not isinstance(b, str) or set(b) - set("xyzXYZ"):
+                    raise InputError(f"spheres.blocked[{k}] = {b!r}: must be a string of letters from 'xyzXYZ'")
+                for c in b:
+                    mask[k] |= 1 << "xyzXYZ".index(c)
+        vel = np.zeros((n, 3)) if vel is None else _vectors("spheres.vel", np.broadcast_to(vel, (n, 3)), n)
+        angvel = np.zeros((n, 3)) if angvel is None else _vectors("spheres.angvel", np.broadcast_to(angvel, (n, 3)), n)
+        rho = np.array([self.materials.materials[m].density for m in mat])
+        volume = 4.0 / 3.0 * pi * r ** 3  # Yade: (4./3)*math.pi*r**3
+        mass = volume * rho
+        inertia = 2.0 / 5.0 * volume * r ** 2 * rho  # Yade: geomInert = (2./5.)*V*r**2, times rho
+        start = sum(len(s["gid"]) for s in self._spheres)
+        gids = np.arange(start, start + n, dtype=np.int64)
+        self._spheres.append({"gid": gids, "pos": pos, "vel": vel, "angvel": angvel, "radius": r, "mass": mass,
+                              "inertia": inertia, "material": mat, "blocked": mask})
+        return gids
+
+    def add_wall(self, axis, position, material, *, sense=0, velocity=(0.0, 0.0, 0.0), name=""):
+        """Add an infinite axis-aligned plane x[axis] = position [m] (Yade's utils.wall)."""
+        label = f"walls.{name}" if name else f"walls[{len(self.walls)}]"
+        m = self._material_index(f"{label}.material", material)
+        return self.walls.add(axis, _number(f"{label}.position", position), m, sense,
+                              _vectors(f"{label}.velocity", velocity, 1)[0], label)
+
+    def add_facet(self, vertices, material, *, velocity=(0.0, 0.0, 0.0)):
+        """Add a triangle (three vertices [m]), optionally translating with `velocity` [m/s]."""
+        m = self._material_index(f"facets[{len(self.facets)}].material", material)
+        return self.facets.add(vertices, m, _vectors(f"facets[{len(self.facets)}].velocity", velocity, 1)[0])
+
+    # ------------------------------------------------------------------ build
+    def spheres(self):
+        """All declared spheres as one dict of columns (see `pdem.state.FIELDS`)."""
+        if not self._spheres:
+            raise InputError("spheres: the scene has no spheres")
+        return {k: np.concatenate([s[k] for s in self._spheres]) for k in self._spheres[0]}
+
+    def spec(self):
+        """JSON-able description of the scene (settings, materials, walls, facets; not the bodies)."""
+        return {
+            "settings": self.settings,
+            "materials": [dict(name=n, density=m.density, young=m.young, poisson=m.poisson, friction_angle=m.friction_angle)
+                          for n, m in zip(self.material_names, self.materials.materials)],
+            "walls": [dict(axis=int(a), position=float(p), sense=int(s), velocity=v.tolist(), material=int(m))
+                      for a, p, s, v, m in zip(self.walls.axis, self.walls.position, self.walls.sense,
+                                               self.walls.velocity, self.walls.material)],
+            "facets": [dict(vertices=v.tolist(), velocity=u.tolist(), material=int(m))
+                       for v, u, m in zip(self.facets.vertices, self.facets.velocity, self.facets.material)],
+        }
+
+    def _check_initial_overlaps(self, cols):
+        from .neighbors import build_sphere_pairs
+
+        pos, r, gid = cols["pos"], cols["radius"], cols["gid"]
+        n = len(gid)
+        pi_, pj = build_sphere_pairs(pos, r, gid, n, n, 0.0, 2.0 * r.max(), 8 * n + 1000)
+        if len(pi_):
+            d = np.linalg.norm(pos[pj] - pos[pi_], axis=1)
+            over = r[pi_] + r[pj] - d
+            k = int(np.argmax(over))
+            if over[k] > 0:
+                raise InputError(f"spheres: bodies gid {gid[pi_[k]]} and {gid[pj[k]]} overlap by {over[k]:.3e} m at the start; "
+                                 "move them apart or set allow_initial_overlap = true")
+
+    def build(self, comm=None, domain=None):
+        """Create the `Simulation` (on `comm`'s ranks; default one rank)."""
+        if len(self.materials) == 0:
+            raise InputError("materials: the scene defines no material")
+        cols = self.spheres()
+        if not self.settings["allow_initial_overlap"]:
+            self._check_initial_overlaps(cols)
+        s = self.settings
+        skin = s["skin"] if s["skin"] is not None else 0.25 * float(np.mean(cols["radius"]))
+        if domain is None:
+            if comm is None:
+                from .parallel.comm import SerialComm
+
+                comm = SerialComm()
+            if comm.size == 1:
+                domain = SerialDomain(comm)
+            else:
+                from .parallel.slab_domain import SlabDomain
+
+                domain = SlabDomain(comm, axis=s["slab_axis"])
+        particles = Particles(len(cols["gid"]) if domain.comm.size == 1 else 16)
+        domain.distribute(particles, cols) if hasattr(domain, "distribute") else particles.append_local(cols)
+        return Simulation(particles=particles, materials=self.materials, walls=self.walls, facets=self.facets,
+                          gravity=s["gravity"], damping=s["damping"], dt=None if s["dt"] in ("auto", None) else s["dt"],
+                          dt_safety=s["dt_safety"], dt_interval=s["dt_interval"], pwave_factor=s["pwave_factor"],
+                          skin=skin, check_interval=s["check_interval"], max_overlap_ratio=s["max_overlap_ratio"],
+                          energy_check=s["energy_check"], domain=domain, spec=json.loads(json.dumps(self.spec())))

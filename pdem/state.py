@@ -1,0 +1,112 @@
+"""Particle state: spheres as structure-of-arrays, owned entries first, then ghosts.
+
+Owns the per-body arrays and their capacity. Rows ``[0, n_local)`` are the bodies this rank
+integrates; rows ``[n_local, n_local + n_ghost)`` are read-only copies of neighbours' bodies
+(filled by ``pdem.parallel``). Every body has a global id ``gid`` that never changes: contacts,
+checkpoints and all ordering decisions use it, never the row.
+
+Units: pos [m], vel [m/s], angvel [rad/s], force [N], torque [N·m], radius [m], mass [kg],
+inertia [kg·m²] (a sphere's scalar moment 2/5·m·r², Yade's ``utils.sphere``).
+``blocked`` is a bit mask of blocked degrees of freedom: bits 0–2 translations x, y, z, bits 3–5
+rotations; 63 means fixed. A blocked body still moves with its (prescribed) velocity.
+Imports nothing from pdem but numpy.
+"""
+import numpy as np
+
+DOF_ALL = 63
+
+# name -> (dtype, trailing shape); the columns every body has and that migrate with it
+FIELDS = {
+    "gid": (np.int64, ()),
+    "pos": (np.float64, (3,)),
+    "vel": (np.float64, (3,)),
+    "angvel": (np.float64, (3,)),
+    "radius": (np.float64, ()),
+    "mass": (np.float64, ()),
+    "inertia": (np.float64, ()),
+    "material": (np.int64, ()),
+    "blocked": (np.int64, ()),
+}
+# accumulators and bookkeeping that are rebuilt, never stored or sent
+SCRATCH = {
+    "force": (np.float64, (3,)),
+    "torque": (np.float64, (3,)),
+    "pos_at_rebuild": (np.float64, (3,)),
+}
+# what a ghost needs every step (pdem.parallel sends these)
+GHOST_STEP_FIELDS = ("pos", "vel", "angvel")
+
+
+class Particles:
+    """Spheres in structure-of-arrays layout with geometric growth of the capacity."""
+
+    def __init__(self, capacity=16):
+        self.n_local = 0
+        self.n_ghost = 0
+        self.capacity = 0
+        for name, (dtype, shape) in {**FIELDS, **SCRATCH}.items():
+            setattr(self, name, np.zeros((0,) + shape, dtype))
+        self.reserve(capacity)
+
+    @property
+    def n_total(self):
+        return self.n_local + self.n_ghost
+
+    def reserve(self, capacity):
+        """Grow every array to at least `capacity` rows (factor 1.5), keeping the contents."""
+        if capacity <= self.capacity:
+            return
+        new_cap = max(capacity, int(self.capacity * 1.5) + 16)
+        for name, (dtype, shape) in {**FIELDS, **SCRATCH}.items():
+            old = getattr(self, name)
+            new = np.zeros((new_cap,) + shape, dtype)
+            new[: old.shape[0]] = old
+            setattr(self, name, new)
+        self.capacity = new_cap
+
+    def append_local(self, rows):
+        """Append owned bodies from a dict of column arrays (FIELDS); ghosts must be empty."""
+        assert self.n_ghost == 0, "append owned bodies before ghosts are attached"
+        n = len(rows["gid"])
+        self.reserve(self.n_local + n)
+        sl = slice(self.n_local, self.n_local + n)
+        for name in FIELDS:
+            getattr(self, name)[sl] = rows[name]
+        self.pos_at_rebuild[sl] = self.pos[sl]
+        self.n_local += n
+
+    def remove_local(self, mask):
+        """Drop the owned bodies where ``mask[:n_local]`` is true and drop every ghost.
+
+        The kept owned rows stay in their order and compact at ``[0, n_local)``; every array
+        (FIELDS and SCRATCH) is moved with them. Used by migration (`pdem.parallel`)."""
+        keep = np.flatnonzero(~np.asarray(mask[: self.n_local], bool))
+        for name in {**FIELDS, **SCRATCH}:
+            arr = getattr(self, name)
+            arr[: keep.size] = arr[keep]
+        self.n_local = int(keep.size)
+        self.n_ghost = 0
+
+    def set_ghosts(self, rows):
+        """Replace the ghost rows by the bodies of a dict of FIELDS columns (copies of other
+        ranks' bodies), stored after the owned rows; ``pos_at_rebuild`` is set to ``pos``."""
+        n = len(rows["gid"])
+        self.reserve(self.n_local + n)
+        sl = slice(self.n_local, self.n_local + n)
+        for name in FIELDS:
+            getattr(self, name)[sl] = rows[name]
+        self.pos_at_rebuild[sl] = self.pos[sl]
+        self.force[sl] = 0.0
+        self.torque[sl] = 0.0
+        self.n_ghost = n
+
+    def columns(self, rows=None):
+        """Copy of the FIELDS columns of the given rows (default: all owned rows)."""
+        if rows is None:
+            rows = slice(0, self.n_local)
+        return {name: getattr(self, name)[rows].copy() for name in FIELDS}
+
+    def bytes_per_particle(self):
+        """Memory of the per-body arrays divided by the bodies held [B]."""
+        total = sum(getattr(self, n).nbytes for n in {**FIELDS, **SCRATCH})
+        return total / max(self.n_total, 1)

@@ -1,0 +1,19 @@
+"""Inline 3-vector arithmetic in the evaluation order of Yade's Eigen build.
+
+Yade's Eigen is compiled with EIGEN_DONT_VECTORIZE: a dot product of 3-vectors is evaluated as
+``x0*y0 + (x1*y1 + x2*y2)`` (YADE_MODEL.md §9). Using these helpers everywhere keeps pdem
+bit-identical to Yade on the linear model. numba (without fastmath) contracts nothing into FMA.
+"""
+from numba import njit
+
+
+@njit(inline="always", cache=True)
+def dot3(ax, ay, az, bx, by, bz):
+    """a·b in Yade's order."""
+    return ax * bx + (ay * by + az * bz)
+
+
+@njit(inline="always", cache=True)
+def cross3(ax, ay, az, bx, by, bz):
+    """a×b = (a1 b2 − a2 b1, a2 b0 − a0 b2, a0 b1 − a1 b0)."""
+    return ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx

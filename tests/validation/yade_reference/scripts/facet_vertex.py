@@ -1,0 +1,6 @@
+# Facet scene 'vertex' (see facet_cases.py) -> data/facet_vertex.json
+# Run (from tests/validation/yade_reference/): yade -n -j1 -x scripts/facet_vertex.py
+import sys, os
+CASE = 'facet_vertex'
+_f = os.path.join(os.path.dirname(os.path.abspath(sys.argv[0])), 'facet_cases.py')
+exec(compile(open(_f).read(), _f, 'exec'))
