@@ -18,8 +18,8 @@ class Kernel:
         self.parallel = parallel
         self.serial = serial
         self.size_arg = size_arg
-        self.__doc__ = parallel.py_func.__doc__
-        self.__name__ = parallel.py_func.__name__
+        self.__doc__ = getattr(parallel, "py_func", parallel).__doc__
+        self.__name__ = getattr(parallel, "py_func", parallel).__name__
 
     def __call__(self, *args):
         if args[self.size_arg] >= PARALLEL_MIN and numba.get_num_threads() > 1:

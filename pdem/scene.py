@@ -120,9 +120,11 @@ class Scene:
         vel = np.zeros((n, 3)) if vel is None else _vectors("spheres.vel", np.broadcast_to(vel, (n, 3)), n)
         angvel = np.zeros((n, 3)) if angvel is None else _vectors("spheres.angvel", np.broadcast_to(angvel, (n, 3)), n)
         rho = np.array([self.materials.materials[m].density for m in mat])
-        volume = 4.0 / 3.0 * pi * r ** 3  # Yade: (4./3)*math.pi*r**3
-        mass = volume * rho
-        inertia = 2.0 / 5.0 * volume * r ** 2 * rho  # Yade: geomInert = (2./5.)*V*r**2, times rho
+        # element by element with Python floats, as Yade's utils.sphere does: numpy's power can
+        # differ from Python's r**3 in the last bit
+        volume = np.array([(4.0 / 3) * pi * float(x) ** 3 for x in r])
+        mass = np.array([v * float(d) for v, d in zip(volume, rho)])
+        inertia = np.array([((2.0 / 5.0) * v * float(x) ** 2) * float(d) for v, x, d in zip(volume, r, rho)])
         start = sum(len(s["gid"]) for s in self._spheres)
         gids = np.arange(start, start + n, dtype=np.int64)
         self._spheres.append({"gid": gids, "pos": pos, "vel": vel, "angvel": angvel, "radius": r, "mass": mass,

@@ -224,7 +224,9 @@ class Simulation:
         w = p.angvel[:nl][free]
         ke = 0.5 * m * np.einsum("ij,ij->i", v, v)
         kr = 0.5 * p.inertia[:nl][free] * np.einsum("ij,ij->i", w, w)
-        pe = -m * (p.pos[:nl][free] @ self.gravity)
+        # potential energy at the positions the overlaps were computed from (start of the step)
+        x_start = p.pos[:nl][free] - v * self.dt
+        pe = -m * (x_start @ self.gravity)
         el = []
         for cl in (self.ss, self.sw, self.sf):
             if cl is None:

@@ -12,18 +12,18 @@ import h5py
 import numpy as np
 
 
-def open_h5(path, mode: str) -> h5py.File:
+def open_h5(path, mode: str, **kwargs) -> h5py.File:
     """Open an HDF5 file; file locking is best-effort (cluster file systems often lack flock).
 
     pdem never has two processes on one file at once (checkpoints are written under a private
     temporary name), so a file system without locking must not stop a run.
     """
     try:
-        return h5py.File(path, mode, locking="best-effort")
+        return h5py.File(path, mode, locking="best-effort", **kwargs)
     except (TypeError, ValueError) as exc:  # HDF5 < 1.12.1 does not know best-effort
         if "lock" not in str(exc).lower():
             raise
-        return h5py.File(path, mode)
+        return h5py.File(path, mode, **kwargs)
 
 
 def crc32(array: np.ndarray) -> int:

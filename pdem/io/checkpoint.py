@@ -8,12 +8,12 @@ Must not import mpi4py (the ``comm`` object passed in hides MPI) nor pdem physic
 
 File layout (schema ``pdem-checkpoint``, version 1), readable with plain h5py::
 
-    ckpt_000000000100.h5                  name: ckpt_{step:012d}.h5
-      attrs  schema="pdem-checkpoint", schema_version=1, step (int64),
+    ckpt_000000000100.h5                  name: ckpt_{step:012d}.h5; HDF5 1.10 file format
+      attrs  schema=b"pdem-checkpoint", schema_version=1, step (int64),
              time, dt (float64, copied from meta when present, for convenience),
              tables = JSON list of table names,
              complete = 1 (written last; a file without it is not a checkpoint)
-      meta                                scalar UTF-8 string dataset: JSON of the meta dict
+      meta                                uint8[n]: UTF-8 bytes of the JSON of the meta dict
                                           (step, time, dt, scene spec, pdem version, rng state,
                                           keys ...); attr crc32
       tables/<table>/                     one group per table; the name may nest
@@ -24,11 +24,16 @@ File layout (schema ``pdem-checkpoint``, version 1), readable with plain h5py::
                                           CRC-32 of the dataset's bytes in C order, dtype = numpy
                                           dtype string ("<f8"; bools are HDF5 enums, "|b1")
 
+Text attributes are fixed-length byte strings (h5py returns ``bytes``; ``json.loads`` takes them):
+they live in the object headers, which the 1.10 format checksums, so damaged metadata is refused
+rather than misread. Validation checks every dataset's CRC-32 and dtype, row counts and the
+attributes above; any failure is a one-line `CheckpointError`.
+
 Reading without pdem::
 
     import h5py, json
     with h5py.File("ckpt_000000000100.h5", "r") as f:
-        meta = json.loads(f["meta"][()])
+        meta = json.loads(f["meta"][()].tobytes())
         pos = f["tables/particles/pos"][()]
 
 A checkpoint is written under ``<name>.tmp`` in the same directory, fsynced and renamed with
@@ -179,34 +184,43 @@ def _sort_unique(table: str, cols: dict, keys: list) -> dict:
 
 def _write_file(final: Path, step: int, tables: dict, meta: dict, meta_json: str) -> None:
     with atomic_path(final) as tmp:
-        with open_h5(tmp, "w") as f:
-            f.attrs["schema"] = SCHEMA
+        # HDF5 1.10 file format: its superblock and object headers carry checksums, so damaged
+        # metadata is refused instead of misread (readable by any HDF5 >= 1.10, h5py >= 2.8).
+        with open_h5(tmp, "w", libver=("v110", "v110")) as f:
+            f.attrs["schema"] = _text(SCHEMA)
             f.attrs["schema_version"] = np.int64(SCHEMA_VERSION)
             f.attrs["step"] = np.int64(step)
             for name in ("time", "dt"):
                 if isinstance(meta.get(name), (int, float, np.number)):
                     f.attrs[name] = np.float64(meta[name])
-            f.attrs["tables"] = json.dumps(sorted(tables))
-            ds = f.create_dataset("meta", data=meta_json, dtype=_utf8())
-            ds.attrs["crc32"] = np.uint32(crc32(np.frombuffer(meta_json.encode(), np.uint8)))
+            f.attrs["tables"] = _text(json.dumps(sorted(tables)))
+            meta_bytes = np.frombuffer(meta_json.encode("utf-8"), np.uint8)
+            ds = f.create_dataset("meta", data=meta_bytes)
+            ds.attrs["crc32"] = np.uint32(crc32(meta_bytes))
             for t in sorted(tables):
                 cols = tables[t]
                 g = f.create_group("tables/" + t)
-                g.attrs["keys"] = json.dumps(list(meta["keys"][t]))
-                g.attrs["columns"] = json.dumps(sorted(cols))
+                g.attrs["keys"] = _text(json.dumps(list(meta["keys"][t])))
+                g.attrs["columns"] = _text(json.dumps(sorted(cols)))
                 g.attrs["n_rows"] = np.int64(next(iter(cols.values())).shape[0])
                 for c in sorted(cols):
                     d = g.create_dataset(c, data=cols[c])
                     d.attrs["crc32"] = np.uint32(crc32(cols[c]))
-                    d.attrs["dtype"] = cols[c].dtype.str  # numpy dtype string, e.g. "<f8", "|b1"
+                    d.attrs["dtype"] = _text(cols[c].dtype.str)  # numpy dtype string, e.g. "<f8", "|b1"
             f.attrs["complete"] = np.int64(1)  # last: only a fully written file carries it
             f.flush()
 
 
-def _utf8():
-    import h5py
+def _text(value: str) -> np.bytes_:
+    """A fixed-length string attribute: kept in the object header, which HDF5 checksums."""
+    return np.bytes_(value.encode("utf-8"))
 
-    return h5py.string_dtype("utf-8")
+
+def _str(value) -> str | None:
+    """Attribute value as text (fixed-length strings come back as bytes)."""
+    if value is None:
+        return None
+    return value.decode("utf-8", errors="replace") if isinstance(value, bytes) else str(value)
 
 
 def _prune(directory: Path, step: int, keep: int | None) -> None:
@@ -347,11 +361,12 @@ def _load_open(path: Path, f, keep_data: bool):
             raw = f["meta"][()]
         except Exception as exc:
             fail(f"dataset meta unreadable ({one_line(exc)})")
-        raw = raw if isinstance(raw, bytes) else str(raw).encode()
-        if crc32(np.frombuffer(raw, np.uint8)) != int(f["meta"].attrs.get("crc32", -1)):
+        if not isinstance(raw, np.ndarray) or raw.dtype != np.uint8 or raw.ndim != 1:
+            fail("dataset meta is not a 1-D uint8 array")
+        if crc32(raw) != int(f["meta"].attrs.get("crc32", -1)):
             fail("dataset meta checksum mismatch")
         try:
-            meta = json.loads(raw)
+            meta = json.loads(raw.tobytes().decode("utf-8"))
             names = json.loads(f.attrs["tables"])
         except Exception as exc:
             fail(f"meta or tables attribute is not valid JSON ({one_line(exc)})")
@@ -386,8 +401,8 @@ def _load_open(path: Path, f, keep_data: bool):
                     fail(f"dataset {name} has no checksum")
                 if crc32(data) != int(ds.attrs["crc32"]):
                     fail(f"dataset {name} checksum mismatch")
-                if data.dtype.str != ds.attrs.get("dtype"):
-                    fail(f"dataset {name} reads as dtype {data.dtype.str}, written as {ds.attrs.get('dtype')}")
+                if data.dtype.str != _str(ds.attrs.get("dtype")):
+                    fail(f"dataset {name} reads as dtype {data.dtype.str}, written as {_str(ds.attrs.get('dtype'))}")
                 if keep_data:
                     cols[c] = data
             if keep_data:

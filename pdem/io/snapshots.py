@@ -61,7 +61,7 @@ def _group_name(step: int) -> str:
 
 
 def _xdmf_type(dtype: np.dtype) -> tuple[str, str]:
-    kind = {"f": "Float", "i": "Int", "u": "UInt", "b": "UChar"}[dtype.kind]
+    kind = {"f": "Float", "i": "Int", "u": "UInt"}[dtype.kind]
     return kind, str(dtype.itemsize)
 
 
@@ -143,6 +143,8 @@ class SnapshotWriter:
                 self.xmf_path.unlink(missing_ok=True)
             elif self.h5_path.exists():
                 self._prepare_append(restart_step, log)
+            else:
+                self.xmf_path.unlink(missing_ok=True)  # an index without its data
 
     @property
     def _rank0(self) -> bool:
@@ -212,7 +214,8 @@ class SnapshotWriter:
         for name, a in fields.items():
             if name in _BASE or name == "connectivity" or "/" in name:
                 err = f"field name {name!r} is reserved or invalid"
-            local[name] = np.asarray(a)
+            a = np.asarray(a)
+            local[name] = a.astype(np.uint8) if a.dtype.kind == "b" else a  # XDMF has no bool
         n = local["gid"].shape[0]
         for name, a in local.items():
             if a.ndim == 0 or a.shape[0] != n or a.ndim > 2 or (a.ndim == 2 and a.shape[1] != 3):

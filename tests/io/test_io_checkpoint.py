@@ -67,14 +67,19 @@ def test_round_trip_two_ranks_sorted_and_deduplicated(tmp_path):
                 # (1, 4) crosses the slab boundary: both ranks hold an identical copy
                 "contacts/sphere_sphere": contact_rows([(3, 5), (1, 4), (1, 3)]),
                 "walls": {"wid": np.array([1, 0]), "pos": np.zeros((2, 3)), "force": np.ones((2, 3))},
+                "contacts/sphere_wall": {"gid": np.array([5, 0]), "wid": np.array([1, 0]),
+                                         "history": np.ones((2, 2))},
             }
         else:
             tables = {
                 "particles": particle_rows([4, 0, 2]),
                 "contacts/sphere_sphere": contact_rows([(1, 4), (0, 2), (2, 4)]),
                 "walls": {"wid": np.array([0, 1]), "pos": np.zeros((2, 3)), "force": np.ones((2, 3))},
+                "contacts/sphere_wall": {"gid": np.zeros(0, np.int64), "wid": np.zeros(0, np.int64),
+                                         "history": np.zeros((0, 2))},  # none on this rank
             }
-        return write_checkpoint(tmp_path, 100, tables, meta(), comm)
+        keys = {**KEYS, "contacts/sphere_wall": ["gid", "wid"]}
+        return write_checkpoint(tmp_path, 100, tables, {**meta(), "keys": keys}, comm)
 
     results, errors = run_ranks(2, rank_body)
     assert errors == [None, None]
@@ -91,9 +96,10 @@ def test_round_trip_two_ranks_sorted_and_deduplicated(tmp_path):
     assert list(zip(c["gid_i"], c["gid_j"])) == pairs
     np.testing.assert_array_equal(c["history"], contact_rows(pairs)["history"])
     np.testing.assert_array_equal(tables["walls"]["wid"], [0, 1])
+    np.testing.assert_array_equal(tables["contacts/sphere_wall"]["gid"], [0, 5])
     assert m["time"] == 0.1 + 0.2 and m["dt"] == 2.3e-6 and m["step"] == 100
     assert m["rng"] == json.loads(json.dumps(np.random.default_rng(42).bit_generator.state))
-    assert m["keys"] == KEYS and m["scene"]["n"] == 7
+    assert m["keys"]["particles"] == ["gid"] and m["scene"]["n"] == 7
 
 
 def test_conflicting_duplicates_raise_on_every_rank(tmp_path):
@@ -144,9 +150,9 @@ def test_readable_with_plain_h5py_and_empty_tables(tmp_path):
     keys = {**KEYS, "contacts/sphere_wall": ["gid", "wid"]}
     path = write_checkpoint(tmp_path, 5, tables, {**meta(5), "keys": keys}, SerialComm())
     with h5py.File(path, "r") as f:
-        assert f.attrs["schema"] == "pdem-checkpoint" and f.attrs["complete"] == 1
+        assert f.attrs["schema"] == b"pdem-checkpoint" and f.attrs["complete"] == 1
         assert f.attrs["step"] == 5 and f.attrs["time"] == 0.1 + 0.2
-        assert json.loads(f["meta"][()])["keys"]["particles"] == ["gid"]
+        assert json.loads(f["meta"][()].tobytes())["keys"]["particles"] == ["gid"]
         np.testing.assert_array_equal(f["tables/particles/gid"][()], [0, 1, 2, 3])
         assert f["tables/contacts/sphere_wall/history"].shape == (0, 4)
         assert json.loads(f["tables/contacts/sphere_sphere"].attrs["keys"]) == ["gid_i", "gid_j"]
@@ -239,3 +245,27 @@ def test_find_resume_falls_back_to_previous(tmp_path):
     lines.clear()
     assert find_resume_checkpoint(tmp_path, log=lines.append) is None
     assert len(lines) == 3 and all("no valid checkpoint" in line for line in lines)
+
+
+def test_bit_flips_anywhere_are_refused_or_harmless(tmp_path):
+    """Flip one bit at many offsets (metadata included): never a wrong answer, never a hang."""
+    path = write_checkpoint(tmp_path, 1, serial_tables(), meta(1), SerialComm())
+    ref_tables, ref_meta = read_checkpoint(path)
+    data = path.read_bytes()
+    bad = tmp_path / "flipped.h5"
+    refused = 0
+    for offset in range(0, len(data), 23):
+        flipped = bytearray(data)
+        flipped[offset] ^= 0x10
+        bad.write_bytes(flipped)
+        try:
+            tables, m = read_checkpoint(bad)
+        except CheckpointError as exc:
+            assert "\n" not in str(exc)
+            refused += 1
+            continue
+        assert m == ref_meta, offset
+        for t, cols in ref_tables.items():
+            for c, a in cols.items():
+                assert tables[t][c].dtype == a.dtype and tables[t][c].tobytes() == a.tobytes(), (offset, t, c)
+    assert refused > len(data) // 23 // 2

@@ -10,14 +10,14 @@ from io_fakecomm import run_ranks
 from pdem.io.snapshots import SnapshotError, SnapshotWriter
 
 NUMPY_TYPE = {("Float", "8"): "float64", ("Float", "4"): "float32", ("Int", "8"): "int64",
-              ("Int", "4"): "int32", ("UInt", "1"): "uint8", ("UChar", "1"): "bool"}
+              ("Int", "4"): "int32", ("UInt", "1"): "uint8"}
 
 
 def particles(step, gids):
     gids = np.asarray(gids, dtype=np.int64)
     pos = np.stack([gids * 0.01, np.full(gids.size, step * 1e-3), -gids * 0.02], axis=1)
     return {"gid": gids, "position": pos, "radius": 0.005 + gids * 1e-4,
-            "velocity": pos * 2.0, "fields": {"angvel": -pos, "material": gids % 3}}
+            "velocity": pos * 2.0, "fields": {"angvel": -pos, "material": gids % 3, "broken": gids % 2 == 1}}
 
 
 def write_two_ranks(directory, steps, append=False, restart_step=None):
@@ -52,7 +52,7 @@ def check_xdmf(xmf_path):
                 assert ds.dtype == NUMPY_TYPE[(item.get("NumberType"), item.get("Precision"))]
             names = {a.get("Name"): a.get("AttributeType") for a in grid.findall("Attribute")}
             assert names == {"radius": "Scalar", "velocity": "Vector", "gid": "Scalar",
-                             "angvel": "Vector", "material": "Scalar"}
+                             "angvel": "Vector", "material": "Scalar", "broken": "Scalar"}
             g = f[grid.get("Name")]
             assert float(grid.find("Time").get("Value")) == g.attrs["time"]
             grids.append((grid.get("Name"), float(grid.find("Time").get("Value")), n))
@@ -69,6 +69,8 @@ def test_snapshots_ordered_by_gid_and_xdmf_consistent(tmp_path):
         for key in ("position", "radius", "velocity"):
             np.testing.assert_array_equal(g[key][()], expected[key])
         np.testing.assert_array_equal(g["angvel"][()], expected["fields"]["angvel"])
+        assert g["broken"].dtype == np.uint8
+        np.testing.assert_array_equal(g["broken"][()], expected["fields"]["broken"])
         np.testing.assert_array_equal(g["connectivity"][()].ravel(), np.arange(7))
     grids = check_xdmf(tmp_path / "snapshots.xmf")
     assert grids == [("step_000000000000", 0.0, 7), ("step_000000000100", 0.01, 7),

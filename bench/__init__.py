@@ -1,0 +1,1 @@
+"""pdem benchmarks (``make bench``): throughput of a dense settled bed; see __main__.py."""

@@ -1,0 +1,306 @@
+"""Slab decomposition over MPI: the `pdem.domain.SerialDomain` interface for several ranks.
+
+Owns: the slab edges along one axis, migration of bodies (with every real contact that involves
+them: key, state, params, history) to the rank whose slab holds their centre, the ghost layer
+(copies of the neighbours' bodies within ``halo = 2 r_max + skin`` of this slab, refreshed every
+step) and optional dynamic load balancing (edges moved to equalise owned bodies plus contacts).
+
+Why the trajectory does not depend on the rank count: a sphere pair is computed by every rank
+that owns one of its bodies, from exact copies of both bodies, and each rank sums forces only for
+its owned bodies in partner-gid order (`pdem.forces`); so no force is ever sent back. Ownership
+only decides who computes what, never a number, so moving edges does not change any bit.
+
+Talks to MPI only through a ``pdem.parallel.comm`` communicator (numpy buffers: ``neighbor_
+exchange``, ``allgather_rows``, integer reductions); imports no mpi4py. The pure helpers
+(`pack_rows`, `unpack_rows`, `contact_gids`, `migrating_contacts`) are unit-tested without MPI.
+"""
+import time as _time
+
+import numpy as np
+
+from pdem.contacts import KEY_SHIFT_INDEX, KEY_SHIFT_SPHERE
+from pdem.parallel import slabs
+from pdem.state import FIELDS
+
+__all__ = ["SlabDomain", "pack_rows", "unpack_rows", "contact_gids", "migrating_contacts"]
+
+_INT_FIELDS = [k for k, (dt, _) in FIELDS.items() if np.dtype(dt).kind in "iu"]
+_FLOAT_FIELDS = [k for k, (dt, _) in FIELDS.items() if np.dtype(dt).kind == "f"]
+
+
+# --------------------------------------------------------------------------- pure helpers
+def pack_rows(cols, n=None):
+    """FIELDS columns -> (int64[n, ki], float64[n, kf]) blocks, one row per body."""
+    if n is None:
+        n = len(cols["gid"])
+    def width(k):
+        return int(np.prod(FIELDS[k][1], dtype=np.int64))
+
+    ints = [np.asarray(cols[k]).reshape(n, width(k)).astype(np.int64) for k in _INT_FIELDS]
+    flts = [np.asarray(cols[k]).reshape(n, width(k)).astype(np.float64) for k in _FLOAT_FIELDS]
+    return np.concatenate(ints, axis=1), np.concatenate(flts, axis=1)
+
+
+def unpack_rows(ints, floats):
+    """Inverse of `pack_rows`: a dict of FIELDS columns (copies) with their trailing shapes."""
+    n = ints.shape[0]
+    out = {}
+    for block, names in ((ints, _INT_FIELDS), (floats, _FLOAT_FIELDS)):
+        c = 0
+        for k in names:
+            dtype, shape = FIELDS[k]
+            w = int(np.prod(shape, dtype=np.int64))
+            out[k] = block[:, c : c + w].reshape((n,) + shape).astype(dtype)
+            c += w
+    return out
+
+
+def contact_gids(key, sphere_pair):
+    """Global ids in contact keys: ``(gid_i, gid_j)`` for sphere pairs, ``(gid, -1)`` otherwise."""
+    key = np.asarray(key, np.int64)
+    if sphere_pair:
+        return key >> KEY_SHIFT_SPHERE, key & ((1 << KEY_SHIFT_SPHERE) - 1)
+    return key >> KEY_SHIFT_INDEX, np.full(key.shape, -1, np.int64)
+
+
+def migrating_contacts(key, sphere_pair, mig_gid, mig_dest):
+    """Which contact rows travel where: (row[m], dest[m]).
+
+    ``mig_gid``/``mig_dest`` are the migrating bodies and their new owners. A row goes to the new
+    owner of each of its migrating bodies (once per destination; a pair whose two bodies move to
+    different ranks is sent to both)."""
+    key = np.asarray(key, np.int64)
+    if key.size == 0 or len(mig_gid) == 0:
+        return np.zeros(0, np.int64), np.zeros(0, np.int64)
+    order = np.argsort(mig_gid, kind="stable")
+    g_sorted, d_sorted = np.asarray(mig_gid)[order], np.asarray(mig_dest)[order]
+    rows, dests = [], []
+    for g in contact_gids(key, sphere_pair):
+        pos = np.clip(np.searchsorted(g_sorted, g), 0, g_sorted.size - 1)
+        hit = g_sorted[pos] == g
+        rows.append(np.flatnonzero(hit))
+        dests.append(d_sorted[pos[hit]])
+    rows, dests = np.concatenate(rows), np.concatenate(dests)
+    # a pair with both bodies going to the same rank: send once
+    _, first = np.unique(rows * (1 << 20) + dests, return_index=True)
+    first.sort()
+    return rows[first], dests[first]
+
+
+# --------------------------------------------------------------------------- the domain
+class SlabDomain:
+    """Slabs along ``axis`` over the ranks of ``comm`` (rank r owns ``[edges[r], edges[r+1])``).
+
+    Parameters
+    ----------
+    comm : MpiComm (or SerialComm: one slab, nothing to exchange)
+    axis : int
+        Decomposed axis (0, 1, 2).
+    balance_threshold : float or None
+        At every neighbour rebuild, if ``max/mean`` over ranks of (owned bodies + their real
+        contacts) exceeds this, the interior edges are moved (`slabs.balanced_edges`, at least
+        one halo thick). ``None`` keeps the initial uniform edges.
+    """
+
+    def __init__(self, comm, axis=0, balance_threshold=1.1):
+        if axis not in (0, 1, 2):
+            raise ValueError(f"slab axis must be 0, 1 or 2, got {axis!r}")
+        self.comm = comm
+        self.axis = int(axis)
+        self.balance_threshold = balance_threshold
+        self.comm_seconds = 0.0
+        self.edges = None
+        self.r_max = 0.0
+        self.halo = 0.0
+        self.send_lo = np.zeros(0, np.int64)  # owned rows that are ghosts on rank - 1
+        self.send_hi = np.zeros(0, np.int64)  # ... on rank + 1
+        self.n_from_lo = 0  # ghost rows [n_local, n_local + n_from_lo) came from rank - 1
+        self.n_from_hi = 0
+        self.n_migrated = 0  # bodies this rank sent away, cumulative
+        self.n_rebalanced = 0  # edge moves, cumulative (same on every rank)
+
+    # ------------------------------------------------------------------ set-up
+    def distribute(self, particles, cols):
+        """Keep the bodies of this rank's slab from the full column dict (identical on every rank).
+
+        Edges: uniform over the extent of the centres along the axis (load balancing at the first
+        rebuild may move them)."""
+        x = np.asarray(cols["pos"])[:, self.axis]
+        self.r_max = float(np.max(cols["radius"])) if len(x) else 0.0
+        lo, hi = (float(x.min()), float(x.max())) if len(x) else (0.0, 1.0)
+        if not hi > lo:
+            hi = lo + max(1e-9, 4.0 * self.r_max)
+        self.edges = slabs.uniform_edges(lo, hi, self.comm.size)
+        mine = slabs.owner(x, self.edges) == self.comm.rank
+        particles.append_local({k: np.asarray(v)[mine] for k, v in cols.items() if k in FIELDS})
+
+    def halo_width(self):
+        return self.halo
+
+    def halo_fraction(self, particles):
+        """Ghost rows per owned row on this rank."""
+        return particles.n_ghost / max(particles.n_local, 1)
+
+    # ------------------------------------------------------------------ rebuild
+    def rebuild(self, sim):
+        """Before a neighbour-list rebuild: (balance edges,) migrate bodies and their contacts,
+        then rebuild the ghost layer and the send lists."""
+        t0 = _time.perf_counter()
+        p = sim.particles
+        comm = self.comm
+        self.r_max = comm.allreduce_max(float(p.radius[: p.n_local].max()) if p.n_local else 0.0)
+        self.halo = 2.0 * self.r_max + float(sim.skin)
+        moved_edges = self._balance(sim)
+        self._migrate(sim, moved_edges)
+        self._build_ghosts(p)
+        self.comm_seconds += _time.perf_counter() - t0
+
+    def _loads(self, sim):
+        """Work per owned body: 1 + its real contacts (sphere pairs, walls, facets)."""
+        p = sim.particles
+        nl = p.n_local
+        w = np.ones(nl)
+        for cl in (sim.ss, sim.sw, sim.sf):
+            if cl is None or cl.n == 0:
+                continue
+            rows = cl.real_rows()
+            for idx in ((cl.i[rows], cl.j[rows]) if cl is sim.ss else (cl.i[rows],)):
+                idx = idx[(idx >= 0) & (idx < nl)]
+                w += np.bincount(idx, minlength=nl)[:nl]
+        return w
+
+    def _balance(self, sim):
+        """Move the interior edges if the load imbalance exceeds the threshold; True if moved."""
+        if self.balance_threshold is None or self.comm.size == 1:
+            return False
+        p = sim.particles
+        w = self._loads(sim)
+        x = p.pos[: p.n_local, self.axis]
+        per_rank = self.comm.allgather_rows(np.array([int(w.sum())], np.int64))
+        if slabs.imbalance(per_rank) <= self.balance_threshold:
+            return False
+        xw = self.comm.allgather_rows(np.stack([x, w], axis=1))
+        lo, hi = float(self.edges[0]), float(self.edges[-1])
+        try:
+            new = slabs.balanced_edges(xw[:, 0], xw[:, 1], self.comm.size, lo, hi,
+                                       min_thickness=self.halo * (1.0 + 1e-6))
+        except ValueError:
+            return False  # the box is too short for balanced slabs this thick: keep the edges
+        if np.array_equal(new, self.edges):
+            return False
+        self.edges = new
+        self.n_rebalanced += 1
+        return True
+
+    def _route(self, ints, floats):
+        """Deliver rows to the rank in ``ints[:, 0]`` hop by hop along the chain of slabs.
+
+        Returns the (ints, floats) rows addressed to this rank, received from other ranks."""
+        comm, rank = self.comm, self.comm.rank
+        got_i, got_f = [], []
+        hops = 0
+        while comm.any_flag(ints.shape[0] > 0):
+            hops += 1
+            if hops > comm.size:
+                raise RuntimeError("slab migration did not converge (a destination rank outside 0..size-1?)")
+            dest = ints[:, 0]
+            lo, hi = dest < rank, dest > rank
+            ri_lo, ri_hi = comm.neighbor_exchange(ints[lo], ints[hi])
+            rf_lo, rf_hi = comm.neighbor_exchange(floats[lo], floats[hi])
+            ints = np.concatenate([ri_lo, ri_hi])
+            floats = np.concatenate([rf_lo, rf_hi])
+            here = ints[:, 0] == rank
+            got_i.append(ints[here])
+            got_f.append(floats[here])
+            ints, floats = ints[~here], floats[~here]
+        if not got_i:
+            return np.zeros((0, ints.shape[1]), np.int64), np.zeros((0, floats.shape[1]))
+        return np.concatenate(got_i), np.concatenate(got_f)
+
+    def _migrate(self, sim, edges_moved):
+        p = sim.particles
+        comm, rank = self.comm, self.comm.rank
+        nl = p.n_local
+        p.n_ghost = 0  # ghost rows are rebuilt below; contact rows only use keys from here on
+        x = p.pos[:nl, self.axis]
+        dest = slabs.owner(x, self.edges) if nl else np.zeros(0, np.int64)
+        leave = dest != rank
+        far = leave & (np.abs(dest - rank) > 1)
+        if comm.any_flag(bool(far.any()) and not edges_moved):
+            msg = ""
+            if far.any():
+                k = int(np.flatnonzero(far)[0])
+                msg = (f" body gid {int(p.gid[k])} at {p.pos[k].tolist()} moved from slab {rank} to slab "
+                       f"{int(dest[k])} ({self.edges.tolist()})")
+            raise RuntimeError(
+                "slab migration: a body crossed more than one slab since the last neighbour rebuild "
+                f"(edges along axis {self.axis}: {self.edges.tolist()});{msg or ' see the other ranks'}. "
+                "The state has blown up or the slabs are far too thin: use fewer ranks or a smaller time step")
+        mig = np.flatnonzero(leave)
+        mig_gid, mig_dest = p.gid[mig], dest[mig]
+        self.n_migrated += int(mig.size)
+        # bodies
+        bi, bf = pack_rows(p.columns(mig), mig.size)
+        bi = np.concatenate([mig_dest[:, None].astype(np.int64), bi], axis=1)
+        # contacts: every real row that involves a migrating body
+        parcels = []
+        for cl, sphere in ((sim.ss, True), (sim.sw, False), (sim.sf, False)):
+            if cl is None:
+                continue
+            real = cl.real_rows()
+            rows, cdest = migrating_contacts(cl.key[real], sphere, mig_gid, mig_dest)
+            rows = real[rows]
+            ci = np.stack([cdest, cl.key[rows], cl.state[rows].astype(np.int64)], axis=1)
+            cf = np.concatenate([cl.params[rows], cl.history[rows]], axis=1)
+            parcels.append((cl, ci, cf))
+        p.remove_local(leave)
+        ri, rf = self._route(bi, bf)
+        if ri.shape[0]:
+            p.append_local(unpack_rows(ri[:, 1:], rf))
+        for cl, ci, cf in parcels:
+            ri, rf = self._route(ci, cf)
+            if ri.shape[0] == 0:
+                continue
+            key = ri[:, 1]
+            # drop rows this rank already holds (pair with a body it owned) and duplicates
+            _, first = np.unique(key, return_index=True)
+            first.sort()
+            have = cl.key[cl.real_rows()]
+            first = first[~np.isin(key[first], have)]
+            if first.size:
+                cl.add_carried(key[first], ri[first, 2].astype(np.int8), rf[first, : cl.n_params],
+                               rf[first, cl.n_params :])
+
+    def _build_ghosts(self, p):
+        nl = p.n_local
+        x = p.pos[:nl, self.axis]
+        dest = slabs.ghost_destinations(x, self.edges, self.halo)  # raises if a slab is too thin
+        rank = self.comm.rank
+        self.send_lo = np.flatnonzero(dest[:, 0] == rank - 1).astype(np.int64)
+        self.send_hi = np.flatnonzero(dest[:, 1] == rank + 1).astype(np.int64)
+        lo_i, lo_f = pack_rows(p.columns(self.send_lo), self.send_lo.size)
+        hi_i, hi_f = pack_rows(p.columns(self.send_hi), self.send_hi.size)
+        ri_lo, ri_hi = self.comm.neighbor_exchange(lo_i, hi_i)
+        rf_lo, rf_hi = self.comm.neighbor_exchange(lo_f, hi_f)
+        self.n_from_lo, self.n_from_hi = ri_lo.shape[0], ri_hi.shape[0]
+        p.set_ghosts(unpack_rows(np.concatenate([ri_lo, ri_hi]), np.concatenate([rf_lo, rf_hi])))
+
+    # ------------------------------------------------------------------ every step
+    def update_ghosts(self, particles):
+        """Send pos/vel/angvel of the send lists to the neighbours; overwrite the ghost rows."""
+        t0 = _time.perf_counter()
+        p = particles
+
+        def pack(rows):
+            return np.concatenate([p.pos[rows], p.vel[rows], p.angvel[rows]], axis=1)
+
+        r_lo, r_hi = self.comm.neighbor_exchange(pack(self.send_lo), pack(self.send_hi))
+        if r_lo.shape[0] != self.n_from_lo or r_hi.shape[0] != self.n_from_hi:
+            raise RuntimeError(f"ghost update: received {r_lo.shape[0]}/{r_hi.shape[0]} rows from rank-1/rank+1, "
+                               f"expected {self.n_from_lo}/{self.n_from_hi} (send lists out of step)")
+        a = p.n_local
+        for r in (r_lo, r_hi):
+            b = a + r.shape[0]
+            p.pos[a:b], p.vel[a:b], p.angvel[a:b] = r[:, 0:3], r[:, 3:6], r[:, 6:9]
+            a = b
+        self.comm_seconds += _time.perf_counter() - t0
