@@ -1,0 +1,71 @@
+"""Bad input gets one line naming the field, the value and what is allowed (API and CLI)."""
+import subprocess
+import sys
+import textwrap
+
+import pytest
+
+import pdem
+from pdem.config import scene_from_dict
+
+BASE = {
+    "materials": {"ballast": {"density": 2600.0, "young": 1e7, "poisson": 0.3, "friction_angle": 0.5}},
+    "spheres": [{"pos": [[0, 0, 0], [0.1, 0, 0]], "radius": 0.01, "material": "ballast"}],
+}
+
+
+def _doc(**changes):
+    import copy
+
+    d = copy.deepcopy(BASE)
+    d.update(changes)
+    return d
+
+
+@pytest.mark.parametrize("doc, words", [
+    (_doc(simulation={"dampin": 0.3}), ["simulation.dampin", "unknown key", "damping"]),
+    (_doc(simulation={"damping": 1.5}), ["damping", "1.5", "[0, 0.99]"]),
+    (_doc(simulation={"dt": -1e-6}), ["dt", "-1e-06", "> 0"]),
+    (_doc(materials={"ballast": {"density": 2600.0, "young": -5.0, "poisson": 0.3, "friction_angle": 0.5}}),
+     ["young", "-5.0", "> 0"]),
+    (_doc(materials={"ballast": {"density": 2600.0, "young": 1e7, "poisson": 0.3}}), ["friction_angle", "missing"]),
+    (_doc(spheres=[{"pos": [[0, 0, 0]], "radius": 0.01, "material": "granite"}]), ["granite", "unknown material", "ballast"]),
+    (_doc(spheres=[{"pos": [[0, 0, 0]], "radius": -0.01, "material": "ballast"}]), ["radius", "-0.01", "> 0"]),
+    (_doc(walls=[{"axis": "w", "position": 0.0, "material": "ballast"}]), ["axis", "'w'", "x, y, z"]),
+    (_doc(spheres=[{"pos": [[0, 0, 0], [0.015, 0, 0]], "radius": 0.01, "material": "ballast"}]),
+     ["gid 0 and 1", "overlap", "allow_initial_overlap"]),
+])
+def test_one_line_error_names_the_field(doc, words):
+    with pytest.raises(pdem.InputError) as exc:
+        scene_from_dict(doc).build()
+    msg = str(exc.value)
+    assert "\n" not in msg
+    for w in words:
+        assert w in msg, (w, msg)
+
+
+def test_overlap_allowed_when_asked():
+    doc = _doc(spheres=[{"pos": [[0, 0, 0], [0.015, 0, 0]], "radius": 0.01, "material": "ballast"}],
+               simulation={"allow_initial_overlap": True})
+    sim = scene_from_dict(doc).build()
+    sim.run(1)
+    assert sim.ss.state[: sim.ss.n].sum() == 1
+
+
+def test_cli_exit_status_2_and_one_line(tmp_path):
+    bad = tmp_path / "bad.toml"
+    bad.write_text(textwrap.dedent("""
+        [simulation]
+        damping = 0.3
+        gravty = [0.0, 0.0, -9.81]
+        [materials.b]
+        density = 2600.0
+        young = 1e7
+        poisson = 0.3
+        friction_angle = 0.5
+        """))
+    out = subprocess.run([sys.executable, "-m", "pdem", "run", str(bad), "--out", str(tmp_path / "o")],
+                         capture_output=True, text=True)
+    assert out.returncode == 2
+    lines = [l for l in out.stderr.splitlines() if l.strip()]
+    assert len(lines) == 1 and "simulation.gravty" in lines[0] and "unknown key" in lines[0], out.stderr
