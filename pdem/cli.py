@@ -1,6 +1,7 @@
 """The `pdem` command line: ``python -m pdem run SCENE.toml --out DIR``.
 
-Bad input prints one line (the field, the value, what is allowed) and exits 2; a run stopped by
+Bad input prints one line (the field, the value, what is allowed) and exits 2, and so does a
+checkpoint that cannot be resumed from (damaged, or written for another scene); a run stopped by
 an instability prints the cause and exits 4; a run stopped by SIGTERM/SIGUSR1 after writing a
 checkpoint exits 3 (`pdem.io.signals`).
 """
@@ -16,18 +17,26 @@ def main(argv=None):
     r = sub.add_parser("run", help="run a scene file (TOML)")
     r.add_argument("scene", help="scene file, e.g. jobs/deposition.toml")
     r.add_argument("--out", default=None, help="output directory (default runs/<scene name>)")
-    r.add_argument("--steps", type=int, default=None, help="override run.steps")
+    r.add_argument("--steps", type=int, default=None,
+                   help="override run.steps (the total of the run: a resumed run continues up to it)")
+    r.add_argument("--fresh", action="store_true",
+                   help="ignore and remove the checkpoints in OUT/checkpoints and start from step 0")
     args = ap.parse_args(argv)
     if args.command == "run":
         from pathlib import Path
 
         out = args.out or str(Path("runs") / Path(args.scene).stem)
+        from .io.checkpoint import CheckpointError
+
         try:
             from .run import run_scene_file
 
-            return run_scene_file(args.scene, out, steps=args.steps)
+            return run_scene_file(args.scene, out, steps=args.steps, fresh=args.fresh)
         except InputError as exc:
             print(f"pdem: error: {exc}", file=sys.stderr)
+            return EXIT_INPUT_ERROR
+        except CheckpointError as exc:
+            print(f"pdem: error: checkpoint {exc}", file=sys.stderr)
             return EXIT_INPUT_ERROR
         except InstabilityError as exc:
             print(f"pdem: unstable: {exc}", file=sys.stderr)

@@ -248,3 +248,39 @@ def max_displacement(pos, pos_at_rebuild, n):
         dz = pos[k, 2] - pos_at_rebuild[k, 2]
         m = max(m, dx * dx + dy * dy + dz * dz)
     return sqrt(m)
+
+
+@njit(inline="always", cache=True)
+def _near_box(pos, s, reach, c, h):
+    """True if sphere row s's centre is within `reach` of the box (centre c, half extents h)."""
+    d2 = 0.0
+    for a in range(3):
+        e = abs(pos[s, a] - c[a]) - h[a]
+        if e > 0.0:
+            d2 += e * e
+    return d2 <= reach * reach
+
+
+@njit(cache=True)
+def build_box_candidates(pos, radius, n_local, skin, box_center, box_half):
+    """(ptr[n_local+1], sphere[m], box[m]): boxes within r + skin of each owned sphere (distance
+    from the centre to the box's AABB), in box index order per sphere."""
+    nb = box_center.shape[0]
+    ptr = np.zeros(n_local + 1, np.int64)
+    for s in range(n_local):
+        c = 0
+        for b in range(nb):
+            if _near_box(pos, s, radius[s] + skin, box_center[b], box_half[b]):
+                c += 1
+        ptr[s + 1] = ptr[s] + c
+    m = ptr[n_local]
+    ps = np.empty(m, np.int64)
+    pb = np.empty(m, np.int64)
+    k = 0
+    for s in range(n_local):
+        for b in range(nb):
+            if _near_box(pos, s, radius[s] + skin, box_center[b], box_half[b]):
+                ps[k] = s
+                pb[k] = b
+                k += 1
+    return ptr, ps, pb

@@ -3,8 +3,12 @@
 `run_scene_file(path, out_dir)` is what ``python -m pdem run`` calls on every rank. It writes to
 `out_dir`: ``results.h5`` (schema pdem-results v1: /series of time, energies, contacts,
 unbalanced force, wall forces), ``snapshots.h5``/``.xmf`` if the scene asks, checkpoints in
-``checkpoints/`` if asked, ``results.png`` and ``summary.txt``. SIGTERM/SIGUSR1 make all ranks
-agree, write a checkpoint and exit with status 3 (`pdem.io.signals`).
+``checkpoints/`` (run.checkpoint_every steps, run.checkpoint_every_s wall seconds, the newest
+run.checkpoint_keep kept, 0 = all; always one at the end), ``results.png`` and ``summary.txt``.
+SIGTERM/SIGUSR1 make all ranks agree, write a checkpoint and exit with status 3
+(`pdem.io.signals`). Started again on the same directory, a run resumes from the newest valid
+checkpoint (a damaged newer one is reported and skipped) and appends to its results; ``--fresh``
+removes the old checkpoints and starts over.
 """
 import json
 import sys
@@ -15,6 +19,7 @@ import numpy as np
 
 from . import __version__, observables
 from .config import load_scene
+from .io.checkpoint import CheckpointError, find_resume_checkpoint, list_checkpoints, read_checkpoint, write_checkpoint
 from .io.signals import EXIT_CHECKPOINTED_ON_SIGNAL, install_signal_handlers
 from .io.snapshots import SnapshotWriter
 from .io.timeseries import TimeSeriesWriter
@@ -73,39 +78,104 @@ def plot_series(results_path, png_path):
     plt.close(fig)
 
 
-def run_scene_file(path, out_dir, steps=None):
-    """Run the scene file on this process's ranks; returns the exit status."""
+def _resume_point(comm, ckdir, fresh):
+    """(path or None): the checkpoint to resume from; with ``fresh``, old checkpoints are removed.
+
+    Raises CheckpointError (one line) if the directory holds checkpoints but none is valid."""
+    if fresh:
+        if comm.rank == 0:
+            old = list_checkpoints(ckdir)
+            for _, p in old:
+                p.unlink(missing_ok=True)
+            if old:
+                print(f"--fresh: removed {len(old)} old checkpoint(s) from {ckdir}", flush=True)
+        comm.barrier()
+        return None
+    found = find_resume_checkpoint(ckdir, log=lambda m: print(m, flush=True), comm=comm)
+    if found is None and list_checkpoints(ckdir):
+        names = ", ".join(p.name for _, p in list_checkpoints(ckdir))
+        raise CheckpointError(ckdir, f"no valid checkpoint among {names}; "
+                                     "start over with --fresh (or restore a good checkpoint)")
+    return found
+
+
+def run_scene_file(path, out_dir, steps=None, fresh=False):
+    """Run the scene file on this process's ranks; returns the exit status.
+
+    ``steps`` (default run.steps) is the step count of the whole run: if ``out_dir/checkpoints``
+    holds a valid checkpoint (and not ``fresh``), the run resumes from the newest one and
+    continues to that step, appending to the time series and snapshots. Checkpoints are written
+    every run.checkpoint_every steps, every run.checkpoint_every_s seconds of wall time (decided
+    on rank 0, checked every 100 steps), on SIGTERM/SIGUSR1 (then the exit status is
+    EXIT_CHECKPOINTED_ON_SIGNAL) and at the end."""
     comm = get_comm()
     configure_threads(comm)
     scene, run, _doc = load_scene(path)
+    scene_text = Path(path).read_text()
     out = Path(out_dir)
     if comm.rank == 0:
         out.mkdir(parents=True, exist_ok=True)
     comm.barrier()
     t_start = _time.perf_counter()
+    ckdir = out / "checkpoints"
+    resume = _resume_point(comm, ckdir, fresh)
     sim = scene.build(comm)
+    if resume is not None:
+        tables, meta = read_checkpoint(resume)
+        try:
+            sim.restore_checkpoint(tables, meta)
+        except (ValueError, KeyError) as exc:
+            raise CheckpointError(resume, f"cannot continue this scene from it: {exc}") from None
+        del tables
+        _log(comm, f"resuming from {resume} at step {sim.step} (t = {sim.time:.6e} s, written by pdem "
+                   f"{meta.get('pdem_version')})")
+    step0 = sim.step
     n_total = comm.allreduce_sum_int(sim.particles.n_local)
     n_steps = run["steps"] if steps is None else steps
     _log(comm, f"pdem {__version__}: {path} on {comm.size} rank(s), {n_total} spheres, {len(sim.walls)} walls, "
                f"{len(sim.facets)} facets, {n_steps} steps, dt = {sim.dt:.3e} s")
     results = out / "results.h5"
-    series = TimeSeriesWriter(results, SERIES, every=10, comm=comm)
+    resumed = resume is not None
+    series = TimeSeriesWriter(results, SERIES, every=10, comm=comm, append=resumed,
+                              restart_step=sim.step if resumed else None)
     if comm.rank == 0:
         write_root_attrs(results, sim.spec, run["kind"])
-    snaps = SnapshotWriter(out, comm=comm) if run["snapshot_every"] else None
+    snaps = (SnapshotWriter(out, comm=comm, append=resumed, restart_step=sim.step if resumed else None,
+                            log=lambda m: print(m, flush=True))
+             if run["snapshot_every"] else None)
     stop = install_signal_handlers()
     wall0 = _time.perf_counter()
+    last_ckpt_wall = wall0
+    last_ckpt_step = sim.step if resumed else None
     status = 0
+    keep = run["checkpoint_keep"] or None  # 0: keep every checkpoint
 
     def snapshot():
         p = sim.particles
         nl = p.n_local
         snaps.write(sim.step, sim.time, p.gid[:nl], p.pos[:nl], p.radius[:nl], p.vel[:nl])
 
-    series.append(sample(sim))
-    if snaps:
-        snapshot()
-    for _ in range(n_steps):
+    def checkpoint(why):
+        nonlocal last_ckpt_wall, last_ckpt_step
+        t0 = _time.perf_counter()
+        series.flush()  # rows up to this step must be on disk before the checkpoint exists
+        tables, meta = sim.checkpoint_tables()
+        meta["scene_file"] = scene_text
+        meta["scene_path"] = str(path)
+        meta["ranks"] = comm.size
+        written = write_checkpoint(ckdir, sim.step, tables, meta, comm, keep=keep)
+        last_ckpt_wall = _time.perf_counter()
+        last_ckpt_step = sim.step
+        _log(comm, f"step {sim.step}: checkpoint {written} ({why}, {last_ckpt_wall - t0:.2f} s)")
+        sim.timers.add("output", t0)
+
+    if not resumed:
+        series.append(sample(sim))
+        if snaps:
+            snapshot()
+    if sim.step > n_steps:
+        _log(comm, f"the checkpoint is at step {sim.step}, beyond the {n_steps} steps asked: nothing to run")
+    for _ in range(max(n_steps - sim.step, 0)):
         sim.advance()
         k = sim.step
         t0 = _time.perf_counter()
@@ -115,15 +185,32 @@ def run_scene_file(path, out_dir, steps=None):
             snapshot()
         if run["progress_every"] and k % run["progress_every"] == 0:
             el = _time.perf_counter() - wall0
-            rate = n_total * k / el if el > 0 else 0.0
-            eta = el / k * (n_steps - k)
+            done = k - step0
+            rate = n_total * done / el if el > 0 else 0.0
+            eta = el / max(done, 1) * (n_steps - k)
             _log(comm, f"step {k:>9d}  t = {sim.time:.5e} s  dt = {sim.dt:.3e} s  contacts/particle = "
                        f"{sim.contacts_per_particle():.2f}  {rate / 1e6:.2f} M particle-steps/s  ETA {eta:.0f} s")
         sim.timers.add("output", t0)
-        if k % 100 == 0 and stop.stop_requested(comm):
-            _log(comm, f"step {k}: stop signal received; stopping (exit status {EXIT_CHECKPOINTED_ON_SIGNAL})")
-            status = EXIT_CHECKPOINTED_ON_SIGNAL
-            break
+        if k % 100 == 0:
+            # a collective decision, the same on every rank: a stop signal anywhere
+            if stop.stop_requested(comm):
+                _log(comm, f"step {k}: stop signal received; writing a checkpoint and stopping "
+                           f"(exit status {EXIT_CHECKPOINTED_ON_SIGNAL})")
+                checkpoint("stop signal")
+                status = EXIT_CHECKPOINTED_ON_SIGNAL
+                break
+        why = []
+        if run["checkpoint_every"] and k % run["checkpoint_every"] == 0:
+            why.append(f"every {run['checkpoint_every']} steps")
+        if run["checkpoint_every_s"] and k % 100 == 0:
+            # the wall-clock interval as measured on rank 0, so that every rank agrees
+            if comm.bcast(_time.perf_counter() - last_ckpt_wall >= run["checkpoint_every_s"]
+                          if comm.rank == 0 else None):
+                why.append(f"every {run['checkpoint_every_s']:g} s")
+        if why and k < n_steps:
+            checkpoint(", ".join(why))
+    if status == 0 and last_ckpt_step != sim.step:
+        checkpoint("end of run")
     series.close()
     loop_s = _time.perf_counter() - wall0
     if comm.rank == 0:
@@ -131,7 +218,7 @@ def run_scene_file(path, out_dir, steps=None):
         last = sample_text = None
     last = sample(sim)
     if comm.rank == 0:
-        rate = n_total * (sim.step) / loop_s if loop_s > 0 else 0.0
+        rate = n_total * (sim.step - step0) / loop_s if loop_s > 0 else 0.0
         summary = [f"scene: {path}", f"ranks: {comm.size}", f"spheres: {n_total}", f"steps: {sim.step}",
                    f"simulated time: {sim.time:.6g} s", f"final dt: {sim.dt:.4g} s",
                    f"contacts per particle: {last['contacts_per_particle']:.3f}",

@@ -14,11 +14,13 @@ Example (thesis appendix A, SPEC.md 2.1)::
     sim = scene.build()
     sim.run(82869)
 """
+import copy
 import json
 from math import pi
 
 import numpy as np
 
+from .boxes import Boxes
 from .domain import SerialDomain
 from .errors import InputError
 from .facets import Facets
@@ -76,6 +78,7 @@ class Scene:
         self.material_names = []
         self.walls = Walls()
         self.facets = Facets()
+        self.boxes = Boxes()
         self._spheres = []
 
     # ------------------------------------------------------------------ declarations
@@ -143,6 +146,21 @@ class Scene:
         m = self._material_index(f"facets[{len(self.facets)}].material", material)
         return self.facets.add(vertices, m, _vectors(f"facets[{len(self.facets)}].velocity", velocity, 1)[0])
 
+    def add_box(self, center, half_extents, material, mass, *, blocked=None, fixed=False, load=None,
+                direction=(0.0, 0.0, -1.0), velocity=(0.0, 0.0, 0.0), damping=0.0, name=""):
+        """Add a rigid axis-aligned box (sleeper, platen): one body of `mass` [kg] spanning
+        ``center ± half_extents`` [m]; returns its index.
+
+        `fixed` blocks every DOF (the box still moves with `velocity` [m/s]); `blocked` is a
+        string of blocked DOFs from "xyzXYZ" and must contain XYZ (boxes do not rotate; default
+        "XYZ": free translations). `load` is a `pdem.loads` program (e.g. `Haversine`) whose
+        magnitude [N] pushes along `direction` (default −z); `damping` is the box's own Cundall
+        λ_D (default 0: the box is not damped)."""
+        label = f"boxes.{name}" if name else f"boxes[{len(self.boxes)}]"
+        m = self._material_index(f"{label}.material", material)
+        return self.boxes.add(center, half_extents, m, mass, blocked=blocked, fixed=fixed, load=load,
+                              direction=direction, velocity=velocity, damping=damping, name=name)
+
     # ------------------------------------------------------------------ build
     def spheres(self):
         """All declared spheres as one dict of columns (see `pdem.state.FIELDS`)."""
@@ -151,8 +169,9 @@ class Scene:
         return {k: np.concatenate([s[k] for s in self._spheres]) for k in self._spheres[0]}
 
     def spec(self):
-        """JSON-able description of the scene (settings, materials, walls, facets; not the bodies)."""
-        return {
+        """JSON-able description of the scene (settings, materials, walls, facets, boxes if any; not
+        the spheres)."""
+        out = {
             "settings": self.settings,
             "materials": [dict(name=n, density=m.density, young=m.young, poisson=m.poisson, friction_angle=m.friction_angle)
                           for n, m in zip(self.material_names, self.materials.materials)],
@@ -162,6 +181,9 @@ class Scene:
             "facets": [dict(vertices=v.tolist(), velocity=u.tolist(), material=int(m))
                        for v, u, m in zip(self.facets.vertices, self.facets.velocity, self.facets.material)],
         }
+        if len(self.boxes):
+            out["boxes"] = self.boxes.spec()
+        return out
 
     def _check_initial_overlaps(self, cols):
         from .neighbors import build_sphere_pairs
@@ -203,4 +225,5 @@ class Scene:
                           gravity=s["gravity"], damping=s["damping"], dt=None if s["dt"] in ("auto", None) else s["dt"],
                           dt_safety=s["dt_safety"], dt_interval=s["dt_interval"], pwave_factor=s["pwave_factor"],
                           skin=skin, check_interval=s["check_interval"], max_overlap_ratio=s["max_overlap_ratio"],
-                          energy_check=s["energy_check"], domain=domain, spec=json.loads(json.dumps(self.spec())))
+                          energy_check=s["energy_check"], domain=domain, spec=json.loads(json.dumps(self.spec())),
+                          **({"boxes": copy.deepcopy(self.boxes)} if len(self.boxes) else {}))

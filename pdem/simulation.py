@@ -35,7 +35,7 @@ class Simulation:
     """Built by `pdem.scene.Scene.build`; run with `run(n_steps)`."""
 
     def __init__(self, *, particles, materials, walls, facets, gravity, damping, dt, dt_safety, dt_interval,
-                 pwave_factor, skin, check_interval, max_overlap_ratio, energy_check, domain, spec):
+                 pwave_factor, skin, check_interval, max_overlap_ratio, energy_check, domain, spec, boxes=None):
         self.particles = particles
         self.materials = materials
         self.young, self.poisson, self.friction, self.density = materials.arrays()
@@ -65,8 +65,12 @@ class Simulation:
         self.ss = ContactList(linear.N_PARAMS, linear.HISTORY_WIDTH)
         self.sw = ContactList(linear.N_PARAMS, linear.HISTORY_WIDTH) if len(walls) else None
         self.sf = ContactList(linear.N_PARAMS, linear.HISTORY_WIDTH) if len(facets) else None
+        # rigid boxes (pdem.boxes): replicated, integrated from the exact global sum of their contacts
+        self.boxes = boxes if boxes is not None and len(boxes) else None
+        self.sb = ContactList(linear.N_PARAMS, linear.HISTORY_WIDTH) if self.boxes is not None else None
         self.moving_boundaries = bool((len(walls) and np.any(walls.velocity)) or (len(facets) and np.any(facets.velocity))
-                                      or np.any(particles.vel[: particles.n_local][particles.blocked[: particles.n_local] == 63]))
+                                      or np.any(particles.vel[: particles.n_local][particles.blocked[: particles.n_local] == 63])
+                                      or self.boxes is not None)  # a box's load and weight do external work
         self._empty_ptr = np.zeros(1, np.int64)
         self.rebuild()
         self.update_dt(force=True)
@@ -91,6 +95,10 @@ class Simulation:
             self.f_ptr, ps, pf = neighbors.build_facet_candidates(p.pos, p.radius, p.n_local, self.skin,
                                                                   self.facets.geom, self.facets.vertices)
             self.sf.replace(ps, pf, index_pair_keys(ps, pf, p.gid))
+        if self.sb is not None:
+            self.b_ptr, ps, pb = neighbors.build_box_candidates(p.pos, p.radius, p.n_local, self.skin,
+                                                                self.boxes.center, self.boxes.half)
+            self.sb.replace(ps, pb, index_pair_keys(ps, pb, p.gid))
         p.pos_at_rebuild[: p.n_total] = p.pos[: p.n_total]
         self.boundary_moved = 0.0
         self.n_rebuilds += 1
@@ -111,13 +119,24 @@ class Simulation:
         p = self.particles
         k_dt = timestep.stiffness_dt(p.n_local, p.mass, p.inertia, p.blocked, p.radius, self.inc_ptr, self.inc_pair,
                                      self.inc_first, self.ss.i, self.ss.j, self.ss.state, self.ss.params, self.ss.history,
-                                     *self._list_args(self.sw, "w_ptr"), *self._list_args(self.sf, "f_ptr"))
+                                     *self._list_args(self.sw, "w_ptr"), *self._list_args(self.sf, "f_ptr"),
+                                     *self._list_args(self.sb, "b_ptr"))
+        if self.boxes is not None:  # the box's own mass–spring step, from the global sum of its contacts
+            k_dt = min(k_dt, timestep.box_dt(self.boxes.mass, self.boxes.blocked, self.box_stiffness()))
         k_dt = self.comm.allreduce_min(k_dt)
         if np.isfinite(k_dt):
             self.dt = self.dt_safety * k_dt
         else:
             pw = timestep.pwave_dt(p.n_local, p.radius, p.mass, p.material, self.young)
             self.dt = self.pwave_factor * self.comm.allreduce_min(pw)
+
+    def box_stiffness(self):
+        """[n_boxes] Σ (k_n + k_s) over each box's real contacts, summed exactly over all ranks [N/m]."""
+        nb = len(self.boxes)
+        rows = self.sb.real_rows()
+        vals = np.zeros((len(rows), nb))
+        vals[np.arange(len(rows)), self.sb.j[rows]] = self.sb.params[rows, 0] + self.sb.params[rows, 1]
+        return np.asarray(self.comm.exact_sum_rows(vals), np.float64).reshape(nb)
 
     def _list_args(self, cl, ptr_name):
         if cl is None:
@@ -142,12 +161,31 @@ class Simulation:
             linear.sphere_facet_forces(sf.n, sf.i, sf.j, sf.state, sf.params, sf.history, sf.force, sf.torque_i,
                                        sf.torque_j, sf.overlap, p.pos, p.vel, p.angvel, p.radius, p.material, y, nu, phi,
                                        f.geom, f.velocity, f.material, self.dt)
+        if self.sb is not None:
+            bx, sb = self.boxes, self.sb
+            linear.sphere_box_forces(sb.n, sb.i, sb.j, sb.state, sb.params, sb.history, sb.force, sb.torque_i,
+                                     sb.torque_j, sb.overlap, p.pos, p.vel, p.angvel, p.radius, p.material, y, nu, phi,
+                                     bx.center, bx.half, bx.velocity, bx.material, self.dt)
         forces.sum_sphere_pairs(p.n_local, self.inc_ptr, self.inc_pair, self.inc_first, ss.force, ss.torque_i,
                                 ss.torque_j, p.force, p.torque)
         if self.sw is not None:
             forces.add_sphere_contacts(p.n_local, self.w_ptr, self.sw.force, self.sw.torque_i, p.force, p.torque)
         if self.sf is not None:
             forces.add_sphere_contacts(p.n_local, self.f_ptr, self.sf.force, self.sf.torque_i, p.force, p.torque)
+        if self.sb is not None:
+            forces.add_sphere_contacts(p.n_local, self.b_ptr, self.sb.force, self.sb.torque_i, p.force, p.torque)
+            self.boxes.contact_force = self.box_contact_forces()
+
+    def box_contact_forces(self):
+        """[n_boxes, 3] total force of the spheres on each box [N]: exact sum over the contact rows
+        of all ranks (each contact is held by the owner of its sphere), so every rank gets the
+        same bits whatever the rank count."""
+        nb = len(self.boxes)
+        rows = self.sb.real_rows()
+        vals = np.zeros((len(rows), 3 * nb))
+        cols = 3 * self.sb.j[rows][:, None] + np.arange(3)[None, :]
+        vals[np.arange(len(rows))[:, None], cols] = -self.sb.force[rows]
+        return np.asarray(self.comm.exact_sum_rows(vals), np.float64).reshape(nb, 3)
 
     def integrate(self):
         p = self.particles
@@ -164,6 +202,8 @@ class Simulation:
         if len(self.facets) and np.any(self.facets.velocity):
             self.facets.move(self.dt)
             self.boundary_moved += float(np.max(np.linalg.norm(self.facets.velocity, axis=1))) * self.dt
+        if self.boxes is not None:  # after the spheres, from the force summed in compute_forces
+            self.boundary_moved += self.boxes.integrate(self.time, self.dt, self.gravity)
 
     def advance(self):
         """One time step."""
@@ -201,7 +241,7 @@ class Simulation:
         """Real contacts per owned body (sphere pairs counted for both bodies, walls/facets once)."""
         p = self.particles
         n = 0.0
-        for cl in (self.ss, self.sw, self.sf):
+        for cl in (self.ss, self.sw, self.sf, self.sb):
             if cl is None:
                 continue
             rows = cl.real_rows()
@@ -228,7 +268,7 @@ class Simulation:
         x_start = p.pos[:nl][free] - v * self.dt
         pe = -m * (x_start @ self.gravity)
         el = []
-        for cl in (self.ss, self.sw, self.sf):
+        for cl in (self.ss, self.sw, self.sf, self.sb):
             if cl is None:
                 continue
             rows = cl.real_rows()
@@ -248,7 +288,7 @@ class Simulation:
         """Largest overlap divided by the smaller radius of the pair, with the pair's gids."""
         p = self.particles
         worst = (0.0, -1, -1)
-        for cl, kind in ((self.ss, "sphere"), (self.sw, "wall"), (self.sf, "facet")):
+        for cl, kind in ((self.ss, "sphere"), (self.sw, "wall"), (self.sf, "facet"), (self.sb, "box")):
             if cl is None or cl.n == 0:
                 continue
             ov = cl.overlap[: cl.n]
@@ -307,3 +347,127 @@ class Simulation:
         for k, v in self.timers.seconds.items():
             lines.append(f"{k:<14}| {v:9.3f} | {100 * v / total if total else 0:7.2f}")
         return "\n".join(lines)
+
+    # ------------------------------------------------------------------ checkpoints (restart)
+    # Tables for `pdem.io.checkpoint.write_checkpoint` and their inverse. Everything a step reads
+    # that is not rebuilt from these is either derived (neighbour lists, ghosts, incidence) or a
+    # per-step output (forces, overlaps), so a restored run continues bit for bit on any number
+    # of ranks (tests/io/test_restart.py, tests/mpi/test_restart_mpi.py).
+    CHECKPOINT_CONTACTS = (("ss", "contacts/sphere_sphere"), ("sw", "contacts/sphere_wall"),
+                           ("sf", "contacts/sphere_facet"), ("sb", "contacts/sphere_box"))
+
+    def checkpoint_tables(self):
+        """(tables, meta) of this rank for `write_checkpoint` (collective writer; every rank calls).
+
+        Tables: ``particles`` (FIELDS of the owned bodies, key gid), ``contacts/<kind>`` (real
+        contacts only: key, params, history; a pair that straddles a slab edge is held, bit for
+        bit identical, by both ranks and the writer keeps one copy), ``walls`` (index, position,
+        velocity) and ``facets`` (index, geom, vertices, velocity), replicated on every rank.
+        Meta: step, time, dt, the energy-check reference and the other scalars of the loop, the
+        scene spec and the pdem version."""
+        from . import __version__
+
+        p = self.particles
+        tables = {"particles": p.columns()}
+        keys = {"particles": ["gid"]}
+        for attr, name in self.CHECKPOINT_CONTACTS:
+            cl = getattr(self, attr, None)
+            if cl is None:
+                continue
+            rows = cl.real_rows()
+            tables[name] = {"key": cl.key[rows].copy(), "params": cl.params[rows].copy(),
+                            "history": cl.history[rows].copy()}
+            keys[name] = ["key"]
+        if len(self.walls):
+            tables["walls"] = {"index": np.arange(len(self.walls), dtype=np.int64),
+                               "position": self.walls.position.copy(), "velocity": self.walls.velocity.copy()}
+            keys["walls"] = ["index"]
+        if len(self.facets):
+            tables["facets"] = {"index": np.arange(len(self.facets), dtype=np.int64), "geom": self.facets.geom.copy(),
+                                "vertices": self.facets.vertices.copy(), "velocity": self.facets.velocity.copy()}
+            keys["facets"] = ["index"]
+        boxes = getattr(self, "boxes", None)
+        if boxes is not None and len(boxes):  # rigid boxes (pdem.boxes): the state their step evolves
+            tables["boxes"] = {"index": np.arange(len(boxes), dtype=np.int64), "center": boxes.center.copy(),
+                               "velocity": boxes.velocity.copy()}
+            keys["boxes"] = ["index"]
+        meta = {
+            "step": int(self.step),
+            "time": float(self.time),
+            "dt": float(self.dt),
+            "n_rebuilds": int(self.n_rebuilds),
+            "energy_reference": None if self.energy_reference is None else [float(x) for x in self.energy_reference],
+            "moving_boundaries": bool(self.comm.any_flag(bool(self.moving_boundaries))),
+            "n_bodies": int(self.comm.allreduce_sum_int(p.n_local)),
+            "scene": self.spec,
+            "pdem_version": __version__,
+            "keys": keys,
+        }
+        return tables, meta
+
+    def restore_checkpoint(self, tables, meta):
+        """Continue from a checkpoint (`read_checkpoint`'s tables and meta) on this communicator.
+
+        Call on every rank right after `Scene.build` of the same scene (any rank count): the
+        bodies are replaced by the checkpointed ones (distributed like at build), walls and
+        facets get their position/geometry and velocity back, the real contacts are injected as
+        carried rows and picked up by key at a neighbour rebuild, and step, time, Δt, the
+        energy-check reference and the rebuild count are restored. Raises ValueError with one
+        line if the checkpoint does not fit this simulation."""
+        from .state import FIELDS
+
+        if meta.get("scene") != self.spec:
+            raise ValueError("the checkpoint was written for a different scene (settings, materials, walls or "
+                             "facets differ from the scene file)")
+        cols = tables["particles"]
+        missing = [k for k in FIELDS if k not in cols]
+        if missing:
+            raise ValueError(f"table particles lacks column(s) {', '.join(missing)}")
+        if len(cols["gid"]) != int(meta.get("n_bodies", len(cols["gid"]))):
+            raise ValueError(f"table particles has {len(cols['gid'])} bodies, meta says {meta.get('n_bodies')}")
+        for name, obj, n in (("walls", self.walls, len(self.walls)), ("facets", self.facets, len(self.facets))):
+            if n and (name not in tables or len(tables[name]["index"]) != n):
+                raise ValueError(f"table {name}: expected {n} rows (the scene's {name})")
+        p = self.particles
+        p.n_ghost = 0
+        p.n_local = 0
+        cols = {k: np.asarray(cols[k]) for k in FIELDS}
+        if hasattr(self.domain, "distribute"):
+            self.domain.distribute(p, cols)
+        else:
+            p.append_local(cols)
+        if len(self.walls):
+            self.walls.position[:] = tables["walls"]["position"]
+            self.walls.velocity[:] = tables["walls"]["velocity"]
+        if len(self.facets):
+            f = tables["facets"]
+            self.facets.geom[:] = f["geom"]
+            self.facets.vertices[:] = f["vertices"]
+            self.facets.velocity[:] = f["velocity"]
+        boxes = getattr(self, "boxes", None)
+        if boxes is not None and len(boxes):
+            if "boxes" not in tables or len(tables["boxes"]["index"]) != len(boxes):
+                raise ValueError(f"table boxes: expected {len(boxes)} rows (the scene's rigid boxes)")
+            boxes.center[:] = tables["boxes"]["center"]
+            boxes.velocity[:] = tables["boxes"]["velocity"]
+        self.moving_boundaries = bool(meta.get("moving_boundaries", self.moving_boundaries))
+        # contacts: every rank gets every row; `replace` at the rebuild keeps the keys it needs
+        for attr, name in self.CHECKPOINT_CONTACTS:
+            cl = getattr(self, attr, None)
+            if cl is None:
+                continue
+            if name not in tables:
+                raise ValueError(f"table {name} missing (the scene has contacts of that kind)")
+            t = tables[name]
+            key = np.asarray(t["key"], np.int64)
+            cl.n = 0  # candidate rows of the build-time rebuild: no contacts yet (no force computed)
+            cl.add_carried(key, np.ones(len(key), np.int8), np.asarray(t["params"], np.float64),
+                           np.asarray(t["history"], np.float64))
+        self.rebuild()
+        self.n_rebuilds = int(meta.get("n_rebuilds", self.n_rebuilds))
+        self.step = int(meta["step"])
+        self.time = float(meta["time"])
+        self.dt = float(meta["dt"])
+        ref = meta.get("energy_reference")
+        self.energy_reference = None if ref is None else [float(x) for x in ref]
+        return self

@@ -8,7 +8,7 @@
   min_a I/K_r,a)). For one degree of freedom the critical step is 2·sqrt(m/k); the sum over a
   body's contacts bounds the coupled system (Gershgorin: ω_max² ≤ 2 K/m), so Δt_k is safe with
   a margin of √2 and a safety factor s ≤ 1 on top (default 0.8, Yade's default).
-Walls, facets and stiff materials (steel at 10 E) are all in the sums.
+Walls, facets, boxes and stiff materials (steel at 10 E) are all in the sums.
 """
 from math import pi, sqrt
 
@@ -40,7 +40,8 @@ def _add(kt, kr, kn, ks, nx, ny, nz, lever):
 
 @njit(cache=True)
 def stiffness_dt(n_local, mass, inertia, blocked, radius, inc_ptr, inc_pair, inc_first, pi_, pj, ss_state, ss_params,
-                 ss_hist, w_ptr, w_state, w_params, w_hist, f_ptr, f_state, f_params, f_hist):
+                 ss_hist, w_ptr, w_state, w_params, w_hist, f_ptr, f_state, f_params, f_hist, b_ptr, b_state, b_params,
+                 b_hist):
     """sqrt(min over free bodies of m/K) from current contacts; inf when no body has contacts."""
     best = np.inf
     kt = np.zeros(3)
@@ -60,10 +61,25 @@ def stiffness_dt(n_local, mass, inertia, blocked, radius, inc_ptr, inc_pair, inc
         for p in range(f_ptr[b], f_ptr[b + 1]):
             if f_state[p] == 1:
                 _add(kt, kr, f_params[p, 0], f_params[p, 1], f_hist[p, 3], f_hist[p, 4], f_hist[p, 5], radius[b])
+        for p in range(b_ptr[b], b_ptr[b + 1]):
+            if b_state[p] == 1:
+                _add(kt, kr, b_params[p, 0], b_params[p, 1], b_hist[p, 3], b_hist[p, 4], b_hist[p, 5], radius[b])
         ktm = max(kt[0], max(kt[1], kt[2]))
         if ktm > 0.0:
             best = min(best, mass[b] / ktm)
         for a in range(3):
             if kr[a] > 0.0:
                 best = min(best, inertia[b] / kr[a])
+    return sqrt(best)
+
+
+def box_dt(mass, blocked, stiffness):
+    """sqrt(min over boxes with a free translation of m/K) [s], K [N/m] the global sum of the
+    normal and shear stiffnesses of the box's real contacts (an upper bound of its stiffness
+    along any axis); inf if no such box has contacts."""
+    best = np.inf
+    for b in range(len(mass)):
+        if blocked[b] & 7 == 7 or not stiffness[b] > 0.0:
+            continue
+        best = min(best, mass[b] / stiffness[b])
     return sqrt(best)

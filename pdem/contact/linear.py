@@ -341,3 +341,94 @@ def sphere_facet_forces(n, ps, pf, state, params, history, force, torque_i, torq
         torque_i[p, 1] = lever * my
         torque_i[p, 2] = lever * mz
         overlap[p] = pen
+
+
+@kernel()
+def sphere_box_forces(n, ps, pb, state, params, history, force, torque_i, torque_j, overlap,
+                      pos, vel, angvel, radius, material, young, poisson, friction,
+                      box_center, box_half, box_vel, box_material, dt):
+    """Forces of sphere–box candidates (axis-aligned rigid box = body 1, like a wall).
+
+    Geometry: the closest point q of the box to the sphere centre x (clamp per axis);
+    outside, n = (x − q)/|x − q| and pen = r − |x − q| (face, edge or corner contact); with the
+    centre inside the box, the exit through the nearest face: n = ±e_a, pen = r + (h_a − |x_a − c_a|).
+    Parameters as for walls (radius1 = radius2 = r: kn = 2 E_b r E_s r/(E_b r + E_s r)),
+    relative velocity with the ratcheting factor α = 2r/(2r − pen) and the box velocity as v1
+    (the box does not rotate). ``force`` is the force on the sphere (−f), ``torque_i`` the
+    torque on the sphere (lever r − pen/2)."""
+    for p in prange(n):
+        s = ps[p]
+        b = pb[p]
+        r = radius[s]
+        dx = pos[s, 0] - box_center[b, 0]
+        dy = pos[s, 1] - box_center[b, 1]
+        dz = pos[s, 2] - box_center[b, 2]
+        hx = box_half[b, 0]
+        hy = box_half[b, 1]
+        hz = box_half[b, 2]
+        ex = dx - min(max(dx, -hx), hx)
+        ey = dy - min(max(dy, -hy), hy)
+        ez = dz - min(max(dz, -hz), hz)
+        fresh = state[p] == 0
+        if ex != 0.0 or ey != 0.0 or ez != 0.0:
+            dist = sqrt(dot3(ex, ey, ez, ex, ey, ez))
+            if fresh and dist > r:
+                _clear(p, state, history, force, torque_i, torque_j, overlap)
+                continue
+            nx = ex / dist
+            ny = ey / dist
+            nz = ez / dist
+            pen = r - dist
+        else:
+            # centre inside: leave through the nearest face (ties: x before y before z)
+            gx = hx - abs(dx)
+            gy = hy - abs(dy)
+            gz = hz - abs(dz)
+            nx = 0.0
+            ny = 0.0
+            nz = 0.0
+            if gx <= gy and gx <= gz:
+                nx = 1.0 if dx >= 0.0 else -1.0
+                pen = r + gx
+            elif gy <= gz:
+                ny = 1.0 if dy >= 0.0 else -1.0
+                pen = r + gy
+            else:
+                nz = 1.0 if dz >= 0.0 else -1.0
+                pen = r + gz
+        if pen < 0.0:
+            _clear(p, state, history, force, torque_i, torque_j, overlap)
+            continue
+        if fresh:
+            mb = box_material[b]
+            ms = material[s]
+            kn, ks, tphi = ip2(young[mb], poisson[mb], friction[mb], r, young[ms], poisson[ms], friction[ms], r)
+            params[p, 0] = kn
+            params[p, 1] = ks
+            params[p, 2] = tphi
+            state[p] = 1
+        ox, oy, oz, tx, ty, tz = _axes(fresh, p, history, nx, ny, nz, angvel[s, 0], angvel[s, 1], angvel[s, 2], dt)
+        rs = r + r
+        alpha = rs / (rs - pen)
+        ax = (vel[s, 0] - box_vel[b, 0]) * alpha
+        ay = (vel[s, 1] - box_vel[b, 1]) * alpha
+        az = (vel[s, 2] - box_vel[b, 2]) * alpha
+        bx, by, bz = cross3(angvel[s, 0], angvel[s, 1], angvel[s, 2], (-r) * nx, (-r) * ny, (-r) * nz)
+        rvx = ax + bx
+        rvy = ay + by
+        rvz = az + bz
+        dn = dot3(nx, ny, nz, rvx, rvy, rvz)
+        rvx = rvx - dn * nx
+        rvy = rvy - dn * ny
+        rvz = rvz - dn * nz
+        fx, fy, fz = law2(p, fresh, nx, ny, nz, pen, rvx * dt, rvy * dt, rvz * dt, ox, oy, oz, tx, ty, tz,
+                          params, history)
+        force[p, 0] = -fx
+        force[p, 1] = -fy
+        force[p, 2] = -fz
+        mx, my, mz = cross3(nx, ny, nz, fx, fy, fz)
+        l2 = r - 0.5 * pen
+        torque_i[p, 0] = l2 * mx
+        torque_i[p, 1] = l2 * my
+        torque_i[p, 2] = l2 * mz
+        overlap[p] = pen

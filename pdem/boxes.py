@@ -1,0 +1,161 @@
+"""Rigid boxes: axis-aligned cuboid bodies (sleeper, loading platen, cover plate), replicated on
+every rank (like walls), each one body with its own mass, blocked DOFs and force program.
+
+A box is ``center ± half_extents`` [m]; its orientation is fixed (axis-aligned: the rotational
+DOFs are always blocked). Spheres touch its faces, edges and corners (`pdem.contact.linear.
+sphere_box_forces`). Every step the simulation sets ``contact_force`` (the total force of the
+spheres on each box [N], an exact sum over all ranks, so every rank holds the same bits) and
+calls `Boxes.integrate`: per free translation ``a = (F_contact + F_load)/m + g`` (optionally
+Cundall-damped per box), ``v += Δt a``, then ``x += Δt v`` for every box (a blocked box moves with
+its prescribed velocity), exactly as the sphere leapfrog (`pdem.integrator`). The load is
+``program.value(t) · direction`` with t the time at the start of the step (when the contact
+forces were computed); direction defaults to −z (a sleeper pushed down).
+
+Imports nothing from pdem but errors and loads.
+"""
+import numpy as np
+
+from .errors import InputError
+from .loads import Constant, Haversine, Impulse
+
+DOF_LETTERS = "xyzXYZ"
+ROTATIONS = 0b111000
+
+
+def _sign(x):
+    return 1.0 if x > 0.0 else (-1.0 if x < 0.0 else 0.0)
+
+
+def blocked_mask(label, blocked, fixed):
+    """Bit mask (bits 0–2 x, y, z; 3–5 rotations) from ``fixed`` or a string of ``xyzXYZ``.
+
+    Rotations are always blocked (orientation fixed); a string that frees one is refused."""
+    if fixed:
+        return 63
+    if blocked is None:
+        return ROTATIONS
+    if not isinstance(blocked, str) or set(blocked) - set(DOF_LETTERS):
+        raise InputError(f"{label}.blocked = {blocked!r}: must be a string of letters from 'xyzXYZ'")
+    mask = 0
+    for c in blocked:
+        mask |= 1 << DOF_LETTERS.index(c)
+    if mask & ROTATIONS != ROTATIONS:
+        raise InputError(f"{label}.blocked = {blocked!r}: boxes do not rotate, so it must contain X, Y and Z "
+                         "(e.g. 'xyXYZ' for z translation only)")
+    return mask
+
+
+class Boxes:
+    """Structure of arrays over the boxes of a scene (index order = declaration order)."""
+
+    def __init__(self):
+        self.center = np.zeros((0, 3))
+        self.half = np.zeros((0, 3))
+        self.velocity = np.zeros((0, 3))
+        self.mass = np.zeros(0)
+        self.material = np.zeros(0, np.int64)
+        self.blocked = np.zeros(0, np.int64)
+        self.damping = np.zeros(0)
+        self.direction = np.zeros((0, 3))
+        self.loads = []
+        self.names = []
+        # per-step outputs, identical on every rank
+        self.contact_force = np.zeros((0, 3))
+        self.load_force = np.zeros((0, 3))
+
+    def __len__(self):
+        return len(self.mass)
+
+    def add(self, center, half_extents, material, mass, *, blocked=None, fixed=False, load=None,
+            direction=(0.0, 0.0, -1.0), velocity=(0.0, 0.0, 0.0), damping=0.0, name=""):
+        """Validate and append one box; returns its index."""
+        label = f"boxes.{name}" if name else f"boxes[{len(self)}]"
+        c = self._vector(f"{label}.center", center)
+        h = self._vector(f"{label}.half_extents", half_extents)
+        if not np.all(h > 0.0):
+            raise InputError(f"{label}.half_extents = {h.tolist()}: every half extent must be > 0 [m]")
+        v = self._vector(f"{label}.velocity", velocity)
+        try:
+            m = float(mass)
+        except (TypeError, ValueError):
+            m = float("nan")
+        if not (np.isfinite(m) and m > 0.0):
+            raise InputError(f"{label}.mass = {mass!r}: must be a number > 0 [kg]")
+        try:
+            lam = float(damping)
+        except (TypeError, ValueError):
+            lam = float("nan")
+        if not (0.0 <= lam <= 0.99):
+            raise InputError(f"{label}.damping = {damping!r}: must be in [0, 0.99] (Cundall's lambda_D)")
+        mask = blocked_mask(label, blocked, fixed)
+        if load is not None and not isinstance(load, (Constant, Haversine, Impulse)):
+            raise InputError(f"{label}.load = {load!r}: must be None or a pdem.loads program (Haversine, Constant, Impulse)")
+        d = self._vector(f"{label}.direction", direction)
+        norm = float(np.sqrt(d @ d))
+        if not norm > 0.0:
+            raise InputError(f"{label}.direction = {d.tolist()}: must be a non-zero vector")
+        self.center = np.vstack([self.center, c[None]])
+        self.half = np.vstack([self.half, h[None]])
+        self.velocity = np.vstack([self.velocity, v[None]])
+        self.mass = np.append(self.mass, m)
+        self.material = np.append(self.material, np.int64(material))
+        self.blocked = np.append(self.blocked, np.int64(mask))
+        self.damping = np.append(self.damping, lam)
+        self.direction = np.vstack([self.direction, (d / norm)[None]])
+        self.loads.append(load)
+        self.names.append(name or str(len(self.names)))
+        self.contact_force = np.zeros((len(self), 3))
+        self.load_force = np.zeros((len(self), 3))
+        return len(self) - 1
+
+    @staticmethod
+    def _vector(label, value):
+        a = np.asarray(value, dtype=np.float64).reshape(-1) if np.ndim(value) else np.full(1, np.nan)
+        if a.shape != (3,) or not np.all(np.isfinite(a)):
+            raise InputError(f"{label} = {value!r}: must be a finite (x, y, z) triple")
+        return a
+
+    def index(self, name_or_index):
+        """Index of a box from its name or index."""
+        if isinstance(name_or_index, str):
+            if name_or_index not in self.names:
+                raise InputError(f"box {name_or_index!r}: unknown; defined: {', '.join(self.names) or 'none'}")
+            return self.names.index(name_or_index)
+        return int(name_or_index)
+
+    def applied(self, t):
+        """[n, 3] applied load [N] at time t."""
+        out = np.zeros((len(self), 3))
+        for b, load in enumerate(self.loads):
+            if load is not None:
+                out[b] = load.value(t) * self.direction[b]
+        return out
+
+    def integrate(self, t, dt, gravity):
+        """Leapfrog of every box from ``contact_force`` and the load at t; returns the largest
+        displacement [m] of this step (for the neighbour-list rebuild criterion)."""
+        self.load_force = self.applied(t)
+        moved = 0.0
+        for b in range(len(self)):
+            bl = int(self.blocked[b])
+            lam = self.damping[b]
+            for c in range(3):
+                if bl & (1 << c):
+                    continue
+                a = (self.contact_force[b, c] + self.load_force[b, c]) / self.mass[b] + gravity[c]
+                if lam > 0.0:
+                    a *= 1.0 - lam * _sign(a * (self.velocity[b, c] + 0.5 * dt * a))
+                self.velocity[b, c] += dt * a
+            step = self.velocity[b] * dt
+            self.center[b] += step
+            moved = max(moved, float(np.sqrt(step @ step)))
+        return moved
+
+    def spec(self):
+        """JSON-able description (initial state as declared)."""
+        return [dict(name=n, center=c.tolist(), half_extents=h.tolist(), velocity=v.tolist(), mass=float(m),
+                     material=int(mt), blocked=int(bl), damping=float(lam), direction=d.tolist(),
+                     load=None if ld is None else ld.spec())
+                for n, c, h, v, m, mt, bl, lam, d, ld in zip(self.names, self.center, self.half, self.velocity, self.mass,
+                                                             self.material, self.blocked, self.damping, self.direction,
+                                                             self.loads)]

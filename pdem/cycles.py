@@ -1,0 +1,103 @@
+"""Per-cycle record of a force-controlled box under a cyclic program (SPEC.md 2.3: sleeper
+settlement and force every cycle).
+
+`CycleRecorder` is fed samples ``(t, settlement, force, load)`` in increasing time, typically
+every step or every few steps from the run driver (`CycleRecorder.sample_box(sim, box)` reads them
+from a simulation). For each cycle k of a `pdem.loads.Haversine` program (start t_k = start + k/f,
+peak t_k + 1/(2f), end t_k + 1/f) it records, from the first sample at or after each instant:
+the settlement at the start, at the peak and at the end, and over the samples in [t_k, t_k+1):
+the largest and smallest force of the spheres on the box and of the applied load. A record is
+complete (appended to ``records``) at the first sample at or after the end of its cycle.
+
+Settlement [m] is the displacement of the box centre along the load direction since a
+reference position (positive = moving with the load, e.g. down for a sleeper); force [N] is the
+ballast reaction along −direction (positive when the ballast pushes back). Imports only numpy.
+"""
+import numpy as np
+
+FIELDS = ("cycle", "t_start", "settlement_start", "settlement_peak", "settlement_end", "force_max", "force_min",
+          "load_max", "load_min", "n_samples")
+
+
+class CycleRecorder:
+    """Records one row per completed cycle of `program` (anything with ``start``, ``frequency``,
+    ``cycles``)."""
+
+    def __init__(self, program):
+        self.start = float(program.start)
+        self.frequency = float(program.frequency)
+        self.cycles = int(program.cycles)
+        self.records = []
+        self._k = 0
+        self._open = None
+        self.reference = None  # box centre the settlement is measured from (sample_box)
+
+    def _times(self, k):
+        t0 = self.start + k / self.frequency
+        return t0, self.start + (k + 0.5) / self.frequency, self.start + (k + 1) / self.frequency
+
+    def _new(self, k):
+        return {"cycle": k, "t_start": self._times(k)[0], "settlement_start": np.nan, "settlement_peak": np.nan,
+                "settlement_end": np.nan, "force_max": -np.inf, "force_min": np.inf, "load_max": -np.inf,
+                "load_min": np.inf, "n_samples": 0}
+
+    def sample(self, t, settlement, force, load=np.nan):
+        """Add one sample; returns the record of a cycle this sample completed, else None."""
+        done = None
+        while self._k < self.cycles:
+            t0, tp, t1 = self._times(self._k)
+            if t < t0:
+                return done
+            rec = self._open if self._open is not None else self._new(self._k)
+            self._open = rec
+            if t >= t1:  # this sample closes the cycle (and may open the next)
+                rec["settlement_end"] = settlement
+                if np.isnan(rec["settlement_start"]):
+                    rec["settlement_start"] = settlement
+                if np.isnan(rec["settlement_peak"]):
+                    rec["settlement_peak"] = settlement
+                self.records.append(rec)
+                done = rec
+                self._open = None
+                self._k += 1
+                continue
+            if np.isnan(rec["settlement_start"]):
+                rec["settlement_start"] = settlement
+            if t >= tp and np.isnan(rec["settlement_peak"]):
+                rec["settlement_peak"] = settlement
+            rec["force_max"] = max(rec["force_max"], force)
+            rec["force_min"] = min(rec["force_min"], force)
+            if not np.isnan(load):
+                rec["load_max"] = max(rec["load_max"], load)
+                rec["load_min"] = min(rec["load_min"], load)
+            rec["n_samples"] += 1
+            return done
+        return done
+
+    def sample_box(self, sim, box=0):
+        """Sample box `box` of a simulation: settlement from the centre at the first call, force of
+        the spheres on the box and applied load, both projected on the load direction."""
+        bx = sim.boxes
+        d = bx.direction[box]
+        if self.reference is None:
+            self.reference = bx.center[box].copy()
+        settlement = float((bx.center[box] - self.reference) @ d)
+        force = float(-(bx.contact_force[box] @ d))
+        load = float(bx.load_force[box] @ d)
+        return self.sample(sim.time, settlement, force, load)
+
+    def table(self):
+        """The completed records as a dict of numpy columns (``FIELDS``)."""
+        return {k: np.array([r[k] for r in self.records]) for k in FIELDS}
+
+    def state(self):
+        """JSON-able state for a checkpoint (``restore`` is its inverse)."""
+        return {"k": self._k, "open": self._open, "records": self.records,
+                "reference": None if self.reference is None else self.reference.tolist()}
+
+    def restore(self, state):
+        self._k = int(state["k"])
+        self._open = state["open"]
+        self.records = list(state["records"])
+        self.reference = None if state["reference"] is None else np.asarray(state["reference"], np.float64)
+        return self

@@ -1,0 +1,109 @@
+"""Restart bit for bit on the current rank count (run under mpiexec -n 2 and -n 3 by `make test`).
+
+Every rank computes the uninterrupted serial reference (N steps). The parallel run stops at step
+k and writes a checkpoint (collective writer: straddling contacts are held by two ranks and
+written once); the checkpoint is then restored (a) onto the same communicator and (b) onto one
+rank (each process alone, SerialComm), both continued to N. Positions, velocities, spins, forces
+and torques of every body (by gid), the contact tables, Δt, time and the energy-check reference
+must equal the reference to the last bit. Restores of a 2-rank checkpoint onto 1, 2 and 3 ranks
+through the command line: tests/io/test_restart_cli.py.
+"""
+import numpy as np
+
+from pdem.io.checkpoint import read_checkpoint, write_checkpoint
+from pdem.parallel.comm import SerialComm, configure_threads
+from pdem.scene import Scene
+
+N_STEPS, K_STEP = 9000, 6345
+_REFERENCE = {}
+
+
+def make_scene():
+    rng = np.random.default_rng(5)
+    spacing = 0.016
+    nx, ny, nz = 18, 5, 10  # 900 bodies, a box long along x (the slab axis)
+    g = np.stack(np.meshgrid(np.arange(nx), np.arange(ny), np.arange(nz), indexing="ij"), -1).reshape(-1, 3)
+    pos = (g + 0.5) * spacing + rng.uniform(-0.0005, 0.0005, (len(g), 3))
+    radius = 0.005 * rng.uniform(0.6, 1.4, len(g))
+    vel = np.zeros((len(g), 3))
+    vel[:, 0] = rng.uniform(-0.6, 0.6, len(g))  # bodies cross slab edges
+    vel[:, 2] = rng.uniform(-0.5, 0.0, len(g))
+    scene = Scene(dt="auto", damping=0.3, gravity=(0.0, 0.0, -9.81), slab_axis=0, dt_interval=50, check_interval=40)
+    m = scene.material(density=2700.0, young=1e7, poisson=0.3, friction_angle=0.5)
+    scene.add_spheres(pos, radius, m, vel=vel)
+    scene.add_wall(2, 0.0, m, sense=1)
+    scene.add_wall(0, 0.0, m, sense=1)
+    scene.add_wall(0, nx * spacing, m, sense=-1)
+    scene.add_wall(1, 0.0, m, sense=1)
+    scene.add_wall(1, ny * spacing, m, sense=-1)
+    return scene
+
+
+def by_gid(comm, sim):
+    p = sim.particles
+    n = p.n_local
+    cols = [comm.allgather_rows(getattr(p, k)[:n].copy()) for k in ("gid", "pos", "vel", "angvel", "force", "torque")]
+    o = np.argsort(cols[0])
+    return [c[o] for c in cols]
+
+
+def tables_by_key(comm, sim):
+    tables, _ = sim.checkpoint_tables()
+    out = {}
+    for t, cols in tables.items():
+        cols = {c: comm.allgather_rows(np.ascontiguousarray(a)) for c, a in cols.items()}
+        key = cols.get("gid", cols.get("key", cols.get("index")))
+        _, first = np.unique(key, return_index=True)  # straddling pairs: two identical copies
+        out[t] = {c: a[first] for c, a in cols.items()}
+    return out
+
+
+def reference():
+    if not _REFERENCE:
+        ref = make_scene().build(comm=SerialComm())
+        ref.run(N_STEPS)
+        c = SerialComm()
+        _REFERENCE["state"] = by_gid(c, ref)
+        _REFERENCE["tables"] = tables_by_key(c, ref)
+        _REFERENCE["scalars"] = (ref.step, ref.time, ref.dt, ref.energy_reference)
+    return _REFERENCE
+
+
+def assert_matches(comm, sim, what):
+    ref = reference()
+    for name, a, b in zip(("gid", "pos", "vel", "angvel", "force", "torque"), ref["state"], by_gid(comm, sim)):
+        assert a.shape == b.shape and np.array_equal(a.view(np.uint8), b.view(np.uint8)), f"{what}: {name}"
+    got = tables_by_key(comm, sim)
+    assert sorted(got) == sorted(ref["tables"]), what
+    for t, cols in ref["tables"].items():
+        for c, a in cols.items():
+            b = got[t][c]
+            assert a.shape == b.shape and np.array_equal(a.view(np.uint8), b.view(np.uint8)), f"{what}: {t}/{c}"
+    assert (sim.step, sim.time, sim.dt, sim.energy_reference) == ref["scalars"], what
+
+
+def test_restart_on_this_rank_count_and_on_one(comm, mpi_tmp_path):
+    configure_threads(comm)
+    reference()
+    first = make_scene().build(comm=comm)
+    first.run(K_STEP)
+    tables, meta = first.checkpoint_tables()
+    path = write_checkpoint(mpi_tmp_path, K_STEP, tables, meta, comm)
+    n_contacts = comm.allreduce_sum_int(len(tables["contacts/sphere_sphere"]["key"]))
+    del first
+    saved, saved_meta = read_checkpoint(path)
+    assert len(saved["particles"]["gid"]) == 900
+    # straddling pairs were held twice and written once
+    assert len(saved["contacts/sphere_sphere"]["key"]) > 300
+    if comm.size > 1:
+        assert n_contacts > len(saved["contacts/sphere_sphere"]["key"])
+
+    again = make_scene().build(comm=comm)
+    again.restore_checkpoint(saved, saved_meta)
+    again.run(N_STEPS - K_STEP)
+    assert_matches(comm, again, f"restored onto {comm.size} rank(s)")
+
+    alone = make_scene().build(comm=SerialComm())
+    alone.restore_checkpoint(*read_checkpoint(path))
+    alone.run(N_STEPS - K_STEP)
+    assert_matches(SerialComm(), alone, f"written on {comm.size}, restored onto 1 rank")
