@@ -27,7 +27,7 @@ $(VENV)/.done: requirements.lock pyproject.toml
 
 # The main job: the default scene on its built-in defaults (see jobs/README.md).
 run: venv
-	$(MPIEXEC) -n 2 $(VPY) -m pdem run jobs/deposition.toml --out runs/deposition
+	$(MPIEXEC) -n 2 $(VPY) -m pdem run jobs/box_test.toml --out runs/box_test --fresh
 
 # Serial tests first (they also fill the numba cache), then the MPI tests on NP ranks and on 3.
 test: venv

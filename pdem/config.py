@@ -30,7 +30,7 @@ WALL_KEYS = {"axis", "position", "material", "sense", "velocity"}
 FACET_KEYS = {"vertices", "material", "velocity"}
 SPHERE_KEYS = {"pos", "radius", "material", "fixed", "vel"}
 DEPOSITION_KEYS = {"box_lo", "box_hi", "count", "radius", "radius_spread", "seed", "material", "walls_material"}
-TOP_KEYS = {"simulation", "run", "materials", "walls", "facets", "spheres", "deposition"}
+TOP_KEYS = {"simulation", "run", "materials", "walls", "facets", "spheres", "deposition", "box_test"}
 AXES = {"x": 0, "y": 1, "z": 2}
 
 

@@ -18,6 +18,9 @@ class SerialDomain:
     def rebuild(self, sim):
         """Migrate bodies and rebuild ghosts before a neighbour-list rebuild (nothing to do)."""
 
+    def renumber_owned(self, order):
+        """The owned rows were permuted (new row k = old row ``order[k]``): nothing to remap."""
+
     def update_ghosts(self, particles):
         """Refresh ghost positions/velocities/spins every step (nothing to do)."""
 

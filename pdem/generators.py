@@ -1,8 +1,9 @@
 """Initial packings: loose random clouds of spheres that do not overlap.
 
-`loose_cloud` places spheres on a jittered cubic lattice of spacing 2·r_max·(1 + gap) inside a box,
-in a random (seeded) order of sites, so that nothing overlaps at the start and the result is the
-same on every rank and platform (numpy's PCG64 generator).
+`loose_cloud` places spheres on a jittered cubic lattice of spacing a = 2·r_max·(1 + gap) inside a
+box, in a random (seeded) order of sites. Each sphere stays inside its lattice cell (side a, wholly
+inside the box), so nothing overlaps another sphere or a side of the box at the start, and the
+result is the same on every rank and platform (numpy's PCG64 generator).
 """
 import numpy as np
 
@@ -24,7 +25,7 @@ def loose_cloud(lo, hi, n, r_mean, spread=0.0, seed=0, gap=0.05):
     radius = sphere_radii(n, r_mean, spread, seed)
     r_max = float(radius.max())
     a = 2.0 * r_max * (1.0 + gap)
-    counts = np.floor((hi - lo - 2.0 * r_max) / a).astype(int) + 1
+    counts = np.floor((hi - lo) / a).astype(int)
     if np.any(counts < 1) or np.prod(counts) < n:
         raise InputError(f"deposition: {n} spheres of radius up to {r_max:.4g} m do not fit in the box {lo.tolist()}..{hi.tolist()} "
                          f"(room for {max(int(np.prod(np.maximum(counts, 0))), 0)}); enlarge the box height or use fewer spheres")
@@ -34,5 +35,5 @@ def loose_cloud(lo, hi, n, r_mean, spread=0.0, seed=0, gap=0.05):
     # fill from the bottom up, random within a layer
     order = np.lexsort((rng.random(len(sites)), sites[:, 2]))[:n]
     jitter = rng.uniform(-0.5, 0.5, (n, 3)) * (a - 2.0 * radius[:, None])
-    pos = lo + r_max + sites[order] * a + jitter * 0.9
+    pos = lo + 0.5 * a + sites[order] * a + jitter * 0.9
     return pos, radius

@@ -52,6 +52,18 @@ def _vectors(label, value, n=None):
     return a
 
 
+def sphere_columns(pos, radius, density, first_gid):
+    """gid, pos, radius, mass, inertia of spheres at rest (vel, angvel zero) [SI]."""
+    # element by element with Python floats, as Yade's utils.sphere does: numpy's power can
+    # differ from Python's r**3 in the last bit
+    volume = np.array([(4.0 / 3) * pi * float(x) ** 3 for x in radius])
+    n = len(radius)
+    return {"gid": np.arange(first_gid, first_gid + n, dtype=np.int64), "pos": np.asarray(pos, np.float64),
+            "vel": np.zeros((n, 3)), "angvel": np.zeros((n, 3)), "radius": np.asarray(radius, np.float64),
+            "mass": np.array([v * float(d) for v, d in zip(volume, density)]),
+            "inertia": np.array([((2.0 / 5.0) * v * float(x) ** 2) * float(d) for v, x, d in zip(volume, radius, density)])}
+
+
 class Scene:
     """Declare a simulation; `build()` turns it into a `Simulation`."""
 
@@ -99,11 +111,12 @@ class Scene:
             raise InputError(f"{label} = {m!r}: not a material index (0..{len(self.materials) - 1})")
         return int(m)
 
-    def add_spheres(self, pos, radius, material, *, fixed=False, vel=None, angvel=None, blocked=None):
+    def add_spheres(self, pos, radius, material, *, fixed=False, vel=None, angvel=None, blocked=None, first_gid=None):
         """Add spheres; returns their global ids. pos [m], radius [m], vel [m/s], angvel [rad/s].
 
         `fixed` blocks every DOF (the body still moves with `vel`); `blocked` is a per-body string
-        of blocked DOFs from "xyzXYZ" (lowercase translations, uppercase rotations)."""
+        of blocked DOFs from "xyzXYZ" (lowercase translations, uppercase rotations). Global ids
+        count up from `first_gid` (default: one past the largest so far)."""
         pos = _vectors("spheres.pos", pos)
         n = len(pos)
         r = np.broadcast_to(np.asarray(radius, np.float64), (n,)).copy()
@@ -123,16 +136,26 @@ class Scene:
         vel = np.zeros((n, 3)) if vel is None else _vectors("spheres.vel", np.broadcast_to(vel, (n, 3)), n)
         angvel = np.zeros((n, 3)) if angvel is None else _vectors("spheres.angvel", np.broadcast_to(angvel, (n, 3)), n)
         rho = np.array([self.materials.materials[m].density for m in mat])
-        # element by element with Python floats, as Yade's utils.sphere does: numpy's power can
-        # differ from Python's r**3 in the last bit
-        volume = np.array([(4.0 / 3) * pi * float(x) ** 3 for x in r])
-        mass = np.array([v * float(d) for v, d in zip(volume, rho)])
-        inertia = np.array([((2.0 / 5.0) * v * float(x) ** 2) * float(d) for v, x, d in zip(volume, r, rho)])
-        start = sum(len(s["gid"]) for s in self._spheres)
-        gids = np.arange(start, start + n, dtype=np.int64)
-        self._spheres.append({"gid": gids, "pos": pos, "vel": vel, "angvel": angvel, "radius": r, "mass": mass,
-                              "inertia": inertia, "material": mat, "blocked": mask})
+        cols = sphere_columns(pos, r, rho, self.next_gid() if first_gid is None else int(first_gid))
+        cols.update(vel=vel, angvel=angvel, material=mat, blocked=mask)
+        self.add_sphere_columns(cols)
+        gids = cols["gid"]
         return gids
+
+    def next_gid(self):
+        """The global id the next added sphere gets (one past the largest so far)."""
+        return max((int(s["gid"].max()) + 1 for s in self._spheres if len(s["gid"])), default=0)
+
+    def add_sphere_columns(self, cols):
+        """Add bodies given as FIELDS columns (e.g. a checkpoint's ``particles`` table), keeping
+        their global ids and state; used between the stages of a multi-stage scene."""
+        from .state import FIELDS
+
+        n = len(cols["gid"])
+        if n and self._spheres and int(np.min(cols["gid"])) < self.next_gid():
+            raise InputError(f"spheres.gid: ids from {int(np.min(cols['gid']))} are already taken")
+        self._spheres.append({k: np.asarray(cols[k]).copy() for k in FIELDS})
+        return np.asarray(cols["gid"])
 
     def add_wall(self, axis, position, material, *, sense=0, velocity=(0.0, 0.0, 0.0), name=""):
         """Add an infinite axis-aligned plane x[axis] = position [m] (Yade's utils.wall)."""

@@ -83,6 +83,10 @@ class Simulation:
         t0 = self.timers.add("communication", t0)
         r_max = self.comm.allreduce_max(float(p.radius[: p.n_total].max()) if p.n_total else 0.0)
         cell = 2.0 * r_max + self.skin
+        # owned rows into cell order (cache locality); rows are storage only, results go by gid
+        order = neighbors.cell_order(p.pos, p.n_local, cell, 8 * p.n_local + 1000)
+        p.permute_local(order)
+        self.domain.renumber_owned(order)
         pi, pj = neighbors.build_sphere_pairs(p.pos, p.radius, p.gid, p.n_local, p.n_total, self.skin, cell,
                                               8 * p.n_total + 1000)
         self.ss.replace(pi, pj, sphere_pair_keys(pi, pj, p.gid))
@@ -124,11 +128,10 @@ class Simulation:
         if self.boxes is not None:  # the box's own mass–spring step, from the global sum of its contacts
             k_dt = min(k_dt, timestep.box_dt(self.boxes.mass, self.boxes.blocked, self.box_stiffness()))
         k_dt = self.comm.allreduce_min(k_dt)
-        if np.isfinite(k_dt):
-            self.dt = self.dt_safety * k_dt
-        else:
-            pw = timestep.pwave_dt(p.n_local, p.radius, p.mass, p.material, self.young)
-            self.dt = self.pwave_factor * self.comm.allreduce_min(pw)
+        pw = self.comm.allreduce_min(timestep.pwave_dt(p.n_local, p.radius, p.mass, p.material, self.young))
+        # never above the P-wave step itself: a body whose few contacts allow a long step can
+        # gain many more within dt_interval steps (a sphere landing on a bed)
+        self.dt = min(self.dt_safety * k_dt, pw) if np.isfinite(k_dt) else self.pwave_factor * pw
 
     def box_stiffness(self):
         """[n_boxes] Σ (k_n + k_s) over each box's real contacts, summed exactly over all ranks [N/m]."""
@@ -414,20 +417,41 @@ class Simulation:
         carried rows and picked up by key at a neighbour rebuild, and step, time, Δt, the
         energy-check reference and the rebuild count are restored. Raises ValueError with one
         line if the checkpoint does not fit this simulation."""
-        from .state import FIELDS
-
         if meta.get("scene") != self.spec:
             raise ValueError("the checkpoint was written for a different scene (settings, materials, walls or "
                              "facets differ from the scene file)")
         cols = tables["particles"]
+        if len(cols["gid"]) != int(meta.get("n_bodies", len(cols["gid"]))):
+            raise ValueError(f"table particles has {len(cols['gid'])} bodies, meta says {meta.get('n_bodies')}")
+        for name, n in (("walls", len(self.walls)), ("facets", len(self.facets)),
+                        ("boxes", len(self.boxes) if self.boxes is not None else 0)):
+            if n and (name not in tables or len(tables[name]["index"]) != n):
+                raise ValueError(f"table {name}: expected {n} rows (the scene's {name})")
+        for attr, name in self.CHECKPOINT_CONTACTS:
+            if getattr(self, attr, None) is not None and name not in tables:
+                raise ValueError(f"table {name} missing (the scene has contacts of that kind)")
+        self.moving_boundaries = bool(meta.get("moving_boundaries", self.moving_boundaries))
+        self.load_state(tables)
+        self.n_rebuilds = int(meta.get("n_rebuilds", self.n_rebuilds))
+        self.step = int(meta["step"])
+        self.time = float(meta["time"])
+        self.dt = float(meta["dt"])
+        ref = meta.get("energy_reference")
+        self.energy_reference = None if ref is None else [float(x) for x in ref]
+        return self
+
+    def load_state(self, tables, rebuild=True):
+        """Replace the bodies by ``tables["particles"]`` (FIELDS columns, any order; distributed
+        like at build) and give back the contact history of ``tables["contacts/<kind>"]`` (rows
+        whose bodies are gone are dropped at the next rebuild); walls, facets and boxes get their
+        state back when their table is present. Every rank passes the same tables. Used by
+        `restore_checkpoint` and by multi-stage scenes (`pdem.boxtest`) between stages."""
+        from .state import FIELDS
+
+        cols = tables["particles"]
         missing = [k for k in FIELDS if k not in cols]
         if missing:
             raise ValueError(f"table particles lacks column(s) {', '.join(missing)}")
-        if len(cols["gid"]) != int(meta.get("n_bodies", len(cols["gid"]))):
-            raise ValueError(f"table particles has {len(cols['gid'])} bodies, meta says {meta.get('n_bodies')}")
-        for name, obj, n in (("walls", self.walls, len(self.walls)), ("facets", self.facets, len(self.facets))):
-            if n and (name not in tables or len(tables[name]["index"]) != n):
-                raise ValueError(f"table {name}: expected {n} rows (the scene's {name})")
         p = self.particles
         p.n_ghost = 0
         p.n_local = 0
@@ -436,38 +460,42 @@ class Simulation:
             self.domain.distribute(p, cols)
         else:
             p.append_local(cols)
-        if len(self.walls):
+        if len(self.walls) and "walls" in tables:
             self.walls.position[:] = tables["walls"]["position"]
             self.walls.velocity[:] = tables["walls"]["velocity"]
-        if len(self.facets):
+        if len(self.facets) and "facets" in tables:
             f = tables["facets"]
             self.facets.geom[:] = f["geom"]
             self.facets.vertices[:] = f["vertices"]
             self.facets.velocity[:] = f["velocity"]
-        boxes = getattr(self, "boxes", None)
-        if boxes is not None and len(boxes):
-            if "boxes" not in tables or len(tables["boxes"]["index"]) != len(boxes):
-                raise ValueError(f"table boxes: expected {len(boxes)} rows (the scene's rigid boxes)")
-            boxes.center[:] = tables["boxes"]["center"]
-            boxes.velocity[:] = tables["boxes"]["velocity"]
-        self.moving_boundaries = bool(meta.get("moving_boundaries", self.moving_boundaries))
+        if self.boxes is not None and "boxes" in tables:
+            self.boxes.center[:] = tables["boxes"]["center"]
+            self.boxes.velocity[:] = tables["boxes"]["velocity"]
         # contacts: every rank gets every row; `replace` at the rebuild keeps the keys it needs
         for attr, name in self.CHECKPOINT_CONTACTS:
             cl = getattr(self, attr, None)
-            if cl is None:
+            if cl is None or name not in tables:
                 continue
-            if name not in tables:
-                raise ValueError(f"table {name} missing (the scene has contacts of that kind)")
             t = tables[name]
             key = np.asarray(t["key"], np.int64)
             cl.n = 0  # candidate rows of the build-time rebuild: no contacts yet (no force computed)
             cl.add_carried(key, np.ones(len(key), np.int8), np.asarray(t["params"], np.float64),
                            np.asarray(t["history"], np.float64))
-        self.rebuild()
-        self.n_rebuilds = int(meta.get("n_rebuilds", self.n_rebuilds))
-        self.step = int(meta["step"])
-        self.time = float(meta["time"])
-        self.dt = float(meta["dt"])
-        ref = meta.get("energy_reference")
-        self.energy_reference = None if ref is None else [float(x) for x in ref]
+        if rebuild:
+            self.rebuild()
         return self
+
+    def set_friction_scale(self, factor):
+        """Friction angles of every material times ``factor`` [-], for new contacts and (Ip2 again
+        for tan φ) for the existing ones: the vibration stage of the thesis (4.2) lowers friction
+        tenfold and restores it with factor 1."""
+        base = self.materials.arrays()[2]
+        self.friction = base * float(factor)
+        p = self.particles
+        for cl, other in ((self.ss, None), (self.sw, self.walls), (self.sf, self.facets), (self.sb, self.boxes)):
+            if cl is None or cl.n == 0:
+                continue
+            n = cl.n
+            mi = p.material[cl.i[:n]]
+            mj = p.material[cl.j[:n]] if other is None else other.material[cl.j[:n]]
+            linear.set_friction(n, mi, mj, self.friction, cl.params)

@@ -3,7 +3,9 @@
 Owns the per-body arrays and their capacity. Rows ``[0, n_local)`` are the bodies this rank
 integrates; rows ``[n_local, n_local + n_ghost)`` are read-only copies of neighbours' bodies
 (filled by ``pdem.parallel``). Every body has a global id ``gid`` that never changes: contacts,
-checkpoints and all ordering decisions use it, never the row.
+checkpoints and all ordering decisions use it, never the row. Rows are storage only: owned rows
+are permuted into spatial order at every neighbour rebuild (`permute_local`), so nothing may
+keep a row index across a rebuild.
 
 Units: pos [m], vel [m/s], angvel [rad/s], force [N], torque [N·m], radius [m], mass [kg],
 inertia [kg·m²] (a sphere's scalar moment 2/5·m·r², Yade's ``utils.sphere``).
@@ -86,6 +88,17 @@ class Particles:
             arr[: keep.size] = arr[keep]
         self.n_local = int(keep.size)
         self.n_ghost = 0
+
+    def permute_local(self, order):
+        """Reorder the owned rows: new row k is old row ``order[k]`` (a permutation of
+        ``[0, n_local)``); every array (FIELDS and SCRATCH) is moved, ghost rows are untouched.
+        Used at neighbour rebuilds to store bodies in spatial order (`pdem.simulation`)."""
+        nl = self.n_local
+        order = np.asarray(order, np.int64)
+        assert order.shape == (nl,)
+        for name in {**FIELDS, **SCRATCH}:
+            arr = getattr(self, name)
+            arr[:nl] = arr[order]
 
     def set_ghosts(self, rows):
         """Replace the ghost rows by the bodies of a dict of FIELDS columns (copies of other

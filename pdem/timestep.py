@@ -8,7 +8,9 @@
   min_a I/K_r,a)). For one degree of freedom the critical step is 2·sqrt(m/k); the sum over a
   body's contacts bounds the coupled system (Gershgorin: ω_max² ≤ 2 K/m), so Δt_k is safe with
   a margin of √2 and a safety factor s ≤ 1 on top (default 0.8, Yade's default).
-Walls, facets, boxes and stiff materials (steel at 10 E) are all in the sums.
+Walls, facets, boxes and stiff materials (steel at 10 E) are all in the sums. The simulation
+never lets Δt exceed Δt_p itself (`Simulation.update_dt`): in a loose cloud the few contacts
+present allow a long step that the many contacts formed before the next estimate do not.
 """
 from math import pi, sqrt
 

@@ -34,6 +34,13 @@ def ip2(e_a, nu_a, phi_a, r_a, e_b, nu_b, phi_b, r_b):
     return kn, ks, tan(min(phi_a, phi_b))
 
 
+@njit(cache=True)
+def set_friction(n, mat_i, mat_j, phi, params):
+    """params[:n, 2] = tan(min φ) of each contact's two materials (Ip2's friction, the same tan)."""
+    for k in range(n):
+        params[k, 2] = tan(min(phi[mat_i[k]], phi[mat_j[k]]))
+
+
 @njit(inline="always", cache=True)
 def _clear(p, state, history, force, torque_i, torque_j, overlap):
     state[p] = 0

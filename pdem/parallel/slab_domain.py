@@ -285,6 +285,16 @@ class SlabDomain:
         self.n_from_lo, self.n_from_hi = ri_lo.shape[0], ri_hi.shape[0]
         p.set_ghosts(unpack_rows(np.concatenate([ri_lo, ri_hi]), np.concatenate([rf_lo, rf_hi])))
 
+    def renumber_owned(self, order):
+        """The owned rows were permuted after `rebuild` (new row k = old row ``order[k]``,
+        `Particles.permute_local`): remap the send lists, keeping their order (the neighbours'
+        ghost rows stay in the order they were received)."""
+        order = np.asarray(order, np.int64)
+        new_of_old = np.empty(order.size, np.int64)
+        new_of_old[order] = np.arange(order.size, dtype=np.int64)
+        self.send_lo = new_of_old[self.send_lo]
+        self.send_hi = new_of_old[self.send_hi]
+
     # ------------------------------------------------------------------ every step
     def update_ghosts(self, particles):
         """Send pos/vel/angvel of the send lists to the neighbours; overwrite the ghost rows."""

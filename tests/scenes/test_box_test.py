@@ -1,0 +1,194 @@
+"""The box test end to end (`pdem.boxtest`) through the command line, on 1, 2 and 3 ranks.
+
+A small box test (about 650 spheres, stiffness scaled down, 2 cycles at 5 Hz) runs all five
+stages (pour, refill, vibrate, settle, load). The same scene on 1 and 2 ranks must give the same
+per-cycle records, load series and preparation series bit for bit; a 2-rank run resumed on 3
+ranks from a stage-boundary checkpoint, and one stopped by SIGTERM in the middle of a stage and
+resumed on 1 rank, must end with the same bits too. The run leaves the files a user looks at
+(results.h5 readable by `analysis`, PNGs, summary). Bad input stops with one line and status 2.
+"""
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pytest
+
+from analysis.io import read_box_test
+from pdem.io.checkpoint import list_checkpoints, read_checkpoint
+
+MPIEXEC = Path(sys.executable).parent / "mpiexec"
+SCENE = """[simulation]
+dt = "auto"
+damping = 0.3
+gravity = [0.0, 0.0, -9.81]
+slab_axis = "x"
+
+[run]
+progress_every = 0
+output_every = 25
+checkpoint_keep = 0
+
+[materials.ballast]
+density = 2600.0
+young = 2.8e6
+poisson = 0.3
+friction_angle = 0.5
+
+[materials.steel]
+density = 7850.0
+young = 2.8e7
+poisson = 0.25
+friction_angle = 0.5
+
+[materials.rubber]
+density = 1000.0
+young = 2.8e5
+poisson = 0.5
+friction_angle = 0.7
+
+[box_test]
+box = [0.35, 0.15, 0.26]
+radius = 0.0125
+radius_spread = 0.3
+seed = 5
+cut_height = 0.16
+height = 0.24
+sleeper_size = [0.12, 0.15, 0.08]
+sleeper_mass = 5.0
+settle_max_time = 0.8
+vibration_time = 0.1
+f_min = 0.0
+f_max = 300.0
+frequency = 5.0
+cycles = 2
+"""
+N_CYCLES, F_MAX, SLEEPER_WEIGHT = 2, 300.0, 5.0 * 9.81
+
+pytestmark = pytest.mark.skipif(not MPIEXEC.exists(), reason="no mpiexec next to the Python executable")
+
+
+def pdem_cmd(n_ranks, scene, out, *extra):
+    cmd = [sys.executable, "-m", "pdem", "run", str(scene), "--out", str(out), *extra]
+    return ([str(MPIEXEC), "-n", str(n_ranks)] + cmd) if n_ranks > 1 else cmd
+
+
+def run_pdem(n_ranks, scene, out, *extra, expect=0):
+    env = dict(os.environ, OMP_NUM_THREADS="1")
+    r = subprocess.run(pdem_cmd(n_ranks, scene, out, *extra), capture_output=True, text=True, timeout=600, env=env)
+    assert r.returncode == expect, f"exit {r.returncode}, expected {expect}\n{r.stdout[-3000:]}\n{r.stderr[-3000:]}"
+    return r
+
+
+def groups(path):
+    with h5py.File(path, "r") as f:
+        return {g: {c: f[g][c][()] for c in f[g]} for g in f}
+
+
+def assert_same_run(ref, got):
+    for name in ("results.h5", "preparation.h5"):
+        a, b = groups(ref / name), groups(got / name)
+        assert sorted(a) == sorted(b), name
+        for g in a:
+            assert sorted(a[g]) == sorted(b[g]), f"{name}:{g}"
+            for c in a[g]:
+                assert np.array_equal(a[g][c], b[g][c], equal_nan=True), f"{got}/{name}:/{g}/{c} differs"
+    last = lambda d: read_checkpoint(list_checkpoints(d / "checkpoints")[-1][1])[0]  # noqa: E731
+    ta, tb = last(ref), last(got)
+    for c in ta["particles"]:
+        assert np.array_equal(ta["particles"][c], tb["particles"][c]), f"{got}: particles/{c}"
+    assert np.array_equal(ta["boxes"]["center"], tb["boxes"]["center"])
+
+
+@pytest.fixture(scope="module")
+def runs(tmp_path_factory):
+    base = tmp_path_factory.mktemp("box_test")
+    scene = base / "scene.toml"
+    scene.write_text(SCENE)
+    r1 = run_pdem(1, scene, base / "r1")
+    r2 = run_pdem(2, scene, base / "r2")
+    return base, scene, r1, r2
+
+
+def test_every_stage_runs_and_leaves_results(runs):
+    base, _, r1, _ = runs
+    out = base / "r1"
+    for stage in ("pour", "refill", "vibrate", "settle", "load"):
+        assert f"stage {stage} done" in r1.stdout
+    for f in ("results.h5", "preparation.h5", "preparation.png", "summary.txt", "analysis/loops.png",
+              "analysis/settlement.png", "analysis/stiffness.png", "analysis/summary.txt"):
+        assert (out / f).stat().st_size > 0, f
+    res = read_box_test(out / "results.h5")
+    cyc = res.cycles
+    assert res.kind == "box_test" and list(cyc["cycle"]) == [1.0, 2.0]
+    # the ballast carries the load plus the sleeper's weight (dynamic, damped: within 15 %)
+    assert np.all(np.abs(cyc["force_peak"] - (F_MAX + SLEEPER_WEIGHT)) < 0.15 * (F_MAX + SLEEPER_WEIGHT))
+    assert np.all(cyc["settlement_peak"] > cyc["settlement_start"])
+    prep = groups(out / "preparation.h5")["series"]
+    # trimming: after the refill the top of the ballast is at most the final height (plus nothing)
+    vib = prep["stage"] == 2
+    assert prep["bed_top"][vib][0] <= 0.24 + 1e-12
+    # the sleeper rests on the ballast during preparation: its bottom never goes under the first cut by
+    # more than the compaction, and it never floats above it
+    z = prep["sleeper_z"][prep["stage"] >= 1]
+    assert np.all(z - 0.04 <= 0.16 + 1e-12) and np.all(z - 0.04 > 0.08)
+
+
+def test_same_bits_on_1_and_2_ranks(runs):
+    base, _, _, _ = runs
+    assert_same_run(base / "r1", base / "r2")
+
+
+def test_resume_from_a_stage_boundary_on_3_ranks(runs):
+    base, scene, _, r2 = runs
+    out = base / "resume3"
+    shutil.copytree(base / "r2", out)
+    # keep the checkpoints up to the end of the refill stage: the run restarts at "vibrate"
+    line = next(s for s in r2.stdout.splitlines() if "(end of stage refill" in s)
+    step = int(line.split(":")[0].split()[1])
+    for s, p in list_checkpoints(out / "checkpoints"):
+        if s > step:
+            p.unlink()
+    r = run_pdem(3, scene, out)
+    assert f"at step {step} (stage vibrate" in r.stdout
+    assert_same_run(base / "r1", out)
+
+
+def test_sigterm_mid_stage_then_resume_on_1_rank(runs):
+    base, scene, _, _ = runs
+    out = base / "term"
+    env = dict(os.environ, OMP_NUM_THREADS="1")
+    proc = subprocess.Popen(pdem_cmd(2, scene, out), stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+                            env=env, start_new_session=True)
+    lines = []
+    for line in proc.stdout:  # wait until the refill stage runs, then stop the job as SLURM would
+        lines.append(line)
+        if line.startswith("stage refill:"):
+            time.sleep(0.3)
+            os.killpg(proc.pid, signal.SIGTERM)
+            break
+    lines += proc.stdout.readlines()
+    assert proc.wait(timeout=300) == 3, "".join(lines)
+    assert any("stop signal received" in s for s in lines), "".join(lines)
+    r = run_pdem(1, scene, out)
+    assert "(resumed)" in r.stdout
+    assert_same_run(base / "r1", out)
+
+
+@pytest.mark.parametrize("edit, message", [
+    (("cycles = 2", "cycles = 0"), "box_test.cycles = 0: must be an integer >= 1"),
+    (("seed = 5", "seed = 5\nsleeper_weight = 3"), "box_test.sleeper_weight: unknown key"),
+    (('box = [0.35, 0.15, 0.26]', 'box = [0.35, 0.15, 0.26]\nbase_material = "clay"'),
+     "box_test.base_material = 'clay': no [materials.clay] table"),
+    (("height = 0.24", "height = 0.1"), "box_test.height = 0.1: must be above cut_height"),
+])
+def test_bad_input_one_line(tmp_path, edit, message):
+    scene = tmp_path / "bad.toml"
+    scene.write_text(SCENE.replace(*edit))
+    r = run_pdem(1, scene, tmp_path / "out", expect=2)
+    assert message in r.stderr and r.stderr.count("\n") == 1, r.stderr
