@@ -271,150 +271,186 @@ def cycle_columns(recorder):
 
 def run_box_test(path, doc, out_dir, comm, steps=None, fresh=False):
     """Run (or resume) the box test of a parsed scene file; returns the exit status."""
-    c = box_settings(doc)
-    run = run_settings(doc)
     if steps is not None:
         raise InputError(f"--steps = {steps}: not used by a box test (its stages end on settle_ratio, "
                          "vibration_time and cycles in [box_test])")
-    t_start = _time.perf_counter()
-    out = prepare_output(comm, out_dir)
-    scene_text = Path(path).read_text()
-    loop = RunLoop(comm, out, run, path, scene_text)
-    resume = resume_point(comm, loop.ckdir, fresh)
-    state = {"stage": 0, "started": False, "stage_t0": 0.0, "next_gid": 0, "load_start": None,
-             "recorder": None, "friction_scale": 1.0, "stages": []}
-    tables, meta = empty_tables(), None
-    if resume is not None:
-        tables, meta = read_checkpoint(resume)
-        if meta.get("scene_file") != scene_text or "box_test" not in meta:
-            raise CheckpointError(resume, "cannot continue this scene from it: it was written for another scene file")
-        state = meta["box_test"]
-        loop.log(f"resuming from {resume} at step {meta['step']} (stage {STAGES[state['stage']]}, "
-                 f"t = {meta['time']:.6e} s, written by pdem {meta.get('pdem_version')})")
-        loop.last_ckpt_step = int(meta["step"])
-    loop.log(f"pdem {__version__}: box test {path} on {comm.size} rank(s); stages {', '.join(STAGES)}")
-    step_now = int(meta["step"]) if meta else 0
-    prep = TimeSeriesWriter(out / "preparation.h5", PREP_SERIES, every=10, comm=comm, append=meta is not None,
-                            restart_step=step_now if meta else None)
-    results = out / "results.h5"
-    series = TimeSeriesWriter(results, LOAD_SERIES, every=10, comm=comm, append=meta is not None,
-                              restart_step=step_now if meta else None)
-    loop.flush += [prep, series]
-    if comm.rank == 0:
-        write_root_attrs(results, {k: doc[k] for k in ("simulation", "materials", "box_test") if k in doc}, "box_test")
-    recorder = sim = None
-    timers = Timers()
-    while state["stage"] < len(STAGES):
-        stage = STAGES[state["stage"]]
-        stage_wall = _time.perf_counter()
+    return BoxTestRun(path, doc, out_dir, comm, fresh).run()
+
+
+class BoxTestRun:
+    """One box test on this process's ranks: the stage loop, its outputs and its checkpoints.
+
+    ``state`` (JSON-able, in every checkpoint) is where the pipeline is: the stage index, whether
+    its opening operations were applied, its start time, the next free gid, the load start, the
+    cycle recorder and a summary row per finished stage."""
+
+    def __init__(self, path, doc, out_dir, comm, fresh):
+        self.c = box_settings(doc)
+        self.run_cfg = run_settings(doc)
+        self.path, self.doc, self.comm = path, doc, comm
+        self.t_start = _time.perf_counter()
+        self.out = prepare_output(comm, out_dir)
+        self.scene_text = Path(path).read_text()
+        self.loop = RunLoop(comm, self.out, self.run_cfg, path, self.scene_text)
+        self.state = {"stage": 0, "started": False, "stage_t0": 0.0, "next_gid": 0, "load_start": None,
+                      "recorder": None, "stages": []}
+        self.tables, self.meta = empty_tables(), None
+        resume = resume_point(comm, self.loop.ckdir, fresh)
+        if resume is not None:
+            self.tables, self.meta = read_checkpoint(resume)
+            if self.meta.get("scene_file") != self.scene_text or "box_test" not in self.meta:
+                raise CheckpointError(resume, "cannot continue this scene from it: it was written for another scene file")
+            self.state = self.meta["box_test"]
+            k = self.state["stage"]
+            self.loop.log(f"resuming from {resume} at step {self.meta['step']} (stage "
+                          f"{STAGES[k] if k < len(STAGES) else 'none left'}, t = {self.meta['time']:.6e} s, "
+                          f"written by pdem {self.meta.get('pdem_version')})")
+            self.loop.last_ckpt_step = int(self.meta["step"])
+        restart = int(self.meta["step"]) if self.meta else None
+        self.results = self.out / "results.h5"
+        self.prep = TimeSeriesWriter(self.out / "preparation.h5", PREP_SERIES, every=10, comm=comm,
+                                     append=restart is not None, restart_step=restart)
+        self.series = TimeSeriesWriter(self.results, LOAD_SERIES, every=10, comm=comm, append=restart is not None,
+                                       restart_step=restart)
+        self.loop.flush += [self.prep, self.series]
+        if comm.rank == 0:
+            write_root_attrs(self.results, {k: doc[k] for k in ("simulation", "materials", "box_test") if k in doc},
+                             "box_test")
+        self.recorder = None
+        self.timers = Timers()  # one timing table for the whole run
+        self.loop.extra_meta = lambda: {"box_test": {**self.state, "recorder": self.recorder.state()
+                                                     if self.recorder else None}}
+
+    def run(self):
+        log = self.loop.log
+        log(f"pdem {__version__}: box test {self.path} on {self.comm.size} rank(s); stages {', '.join(STAGES)}")
+        sim = None
+        while self.state["stage"] < len(STAGES):
+            stage = STAGES[self.state["stage"]]
+            wall0 = _time.perf_counter()
+            sim, scene = self.build_stage(stage)
+            on_step, until, every, t_end = self.program(stage, sim, scene)
+            eta_step = sim.step + int(max(t_end - sim.time, 0.0) / max(sim.dt, 1e-300))
+            n_steps = 0 if stage == "vibrate" and self.c["vibration_time"] == 0 else 10**15  # until() ends it
+            if self.loop.advance(sim, n_steps, on_step=on_step, until=until, until_every=every,
+                                 last_step=eta_step) == "signal":
+                break
+            self.end_stage(stage, sim, wall0)
+        self.prep.close()
+        self.series.close()
+        if sim is None:
+            log(f"the run in {self.out} is complete (its newest checkpoint is after the last stage); nothing to run "
+                "(--fresh starts over)")
+        elif self.loop.status == 0 and self.comm.rank == 0:
+            finish(self.out, self.results, sim, self.state, self.c, self.path, self.comm.size,
+                   _time.perf_counter() - self.t_start)
+        self.loop.close()
+        return self.loop.status
+
+    def build_stage(self, stage):
+        """The simulation of ``stage`` from the global tables (opening operations applied unless
+        the stage was already running in the checkpoint)."""
+        state, meta, c = self.state, self.meta, self.c
         mid_stage = state["started"]
-        time_now = float(meta["time"]) if meta else 0.0
         note = ""
         if not mid_stage:
-            tables, note = start_stage(doc, c, stage, tables, state, time_now)
+            self.tables, note = start_stage(self.doc, c, stage, self.tables, state, float(meta["time"]) if meta else 0.0)
+        tables = self.tables
         center = tables["boxes"]["center"][0] if "boxes" in tables else None
-        scene = stage_scene(doc, c, stage, tables, state["load_start"], center)
-        sim = scene.build(comm)
-        sim.timers = timers  # one timing table for the whole run
+        scene = stage_scene(self.doc, c, stage, tables, state["load_start"], center)
+        sim = scene.build(self.comm)
+        sim.timers = self.timers
         sim.load_state(tables)
+        self.tables = None
         if meta:
             sim.step, sim.time = int(meta["step"]), float(meta["time"])
             sim.n_rebuilds = int(meta.get("n_rebuilds", sim.n_rebuilds))
-        if mid_stage:
+        if mid_stage:  # continue exactly: the Δt and energy reference of the checkpoint
             sim.dt = float(meta["dt"])
             ref = meta.get("energy_reference")
             sim.energy_reference = None if ref is None else [float(x) for x in ref]
         else:
             sim.update_dt(force=True)
-        del tables
-        loop.extra_meta = lambda: {"box_test": {**state, "recorder": recorder.state() if recorder else None}}
         if stage == "vibrate":
             sim.set_friction_scale(c["vibration_friction_factor"])
             sim.gravity = np.asarray(scene.settings["gravity"], np.float64) + shaking(c, sim.time - state["stage_t0"])
-        n_total = comm.allreduce_sum_int(sim.particles.n_local)
-        loop.log(f"stage {stage}{' (resumed)' if mid_stage else ''}: {n_total} spheres, t = {sim.time:.4f} s, "
-                 f"dt = {sim.dt:.3e} s{'; ' + note if note else ''}")
+        n_total = self.comm.allreduce_sum_int(sim.particles.n_local)
+        self.loop.log(f"stage {stage}{' (resumed)' if mid_stage else ''}: {n_total} spheres, t = {sim.time:.4f} s, "
+                      f"dt = {sim.dt:.3e} s{'; ' + note if note else ''}")
+        return sim, scene
+
+    def program(self, stage, sim, scene):
+        """(on_step, until, until_every, t_end) of ``stage``: what is recorded after each step and
+        when the stage ends."""
+        c, state, run = self.c, self.state, self.run_cfg
         t0 = state["stage_t0"]
         if stage == "load":
-            recorder = CycleRecorder(scene.boxes.loads[0])
+            self.recorder = rec = CycleRecorder(scene.boxes.loads[0])
             if state["recorder"] is not None:
-                recorder.restore(state["recorder"])
+                rec.restore(state["recorder"])
             else:
-                recorder.reference = sim.boxes.center[0].copy()
+                rec.reference = sim.boxes.center[0].copy()
 
             def on_step(sim):
-                done = recorder.sample_box(sim, 0)
+                done = rec.sample_box(sim, 0)
                 if done is not None:
                     done["step"] = sim.step
-                    write_table(results, "cycles", cycle_columns(recorder), CYCLE_UNITS, comm=comm)
-                    loop.log(f"cycle {done['cycle'] + 1}/{c['cycles']}: settlement start {1e3 * done['settlement_start']:.3f} "
-                             f"mm, peak {1e3 * done['settlement_peak']:.3f} mm, end {1e3 * done['settlement_end']:.3f} mm; "
-                             f"ballast force {done['force_min']:.1f} .. {done['force_max']:.1f} N")
+                    write_table(self.results, "cycles", cycle_columns(rec), CYCLE_UNITS, comm=self.comm)
+                    self.loop.log(f"cycle {done['cycle'] + 1}/{c['cycles']}: settlement start "
+                                  f"{1e3 * done['settlement_start']:.3f} mm, peak {1e3 * done['settlement_peak']:.3f} mm, "
+                                  f"end {1e3 * done['settlement_end']:.3f} mm; ballast force {done['force_min']:.1f} .. "
+                                  f"{done['force_max']:.1f} N")
                 if run["output_every"] and sim.step % run["output_every"] == 0:
-                    series.append(load_sample(sim, recorder.reference))
+                    self.series.append(load_sample(sim, rec.reference))
 
-            def until(sim):
-                return len(recorder.records) >= c["cycles"]
+            return on_step, lambda sim: len(rec.records) >= c["cycles"], 1, state["load_start"] + c["cycles"] / c["frequency"]
+        if sim.step == 0:  # later stages start at the step of the row that ended the last one
+            self.prep.append(prep_sample(sim, stage))
+        g = np.asarray(scene.settings["gravity"], np.float64)
 
-            t_end, every = state["load_start"] + c["cycles"] / c["frequency"], 1
-        else:
-            if sim.step == 0:  # later stages start at the step of the row that ended the last one
-                prep.append(prep_sample(sim, stage))
-
-            def on_step(sim):
-                if stage == "vibrate":
-                    sim.gravity = np.asarray(scene.settings["gravity"], np.float64) + shaking(c, sim.time - t0)
-                if run["output_every"] and sim.step % run["output_every"] == 0:
-                    prep.append(prep_sample(sim, stage))
-
+        def on_step(sim):
             if stage == "vibrate":
-                t_end, every = t0 + c["vibration_time"], 1
+                sim.gravity = g + shaking(c, sim.time - t0)
+            if run["output_every"] and sim.step % run["output_every"] == 0:
+                self.prep.append(prep_sample(sim, stage))
 
-                def until(sim):
-                    return sim.time >= t_end
-            else:
-                t_end = t0 + c["settle_max_time"]
+        if stage == "vibrate":
+            t_end = t0 + c["vibration_time"]
+            return on_step, lambda sim: sim.time >= t_end, 1, t_end
+        t_end = t0 + c["settle_max_time"]
 
-                def until(sim):
-                    return sim.time >= t_end or (sim.time - t0 >= c["settle_min_time"]
-                                                 and observables.unbalanced_force(sim) < c["settle_ratio"])
-                every = c["check_every"]
-        eta_step = sim.step + int(max(t_end - sim.time, 0.0) / max(sim.dt, 1e-300))
-        n_steps = 0 if stage == "vibrate" and c["vibration_time"] == 0 else 10**15  # until() ends the stage
-        outcome = loop.advance(sim, n_steps, on_step=on_step, until=until, until_every=every, last_step=eta_step)
-        if outcome == "signal":
-            break
+        def settled(sim):
+            return sim.time >= t_end or (sim.time - t0 >= c["settle_min_time"]
+                                         and observables.unbalanced_force(sim) < c["settle_ratio"])
+
+        return on_step, settled, c["check_every"], t_end
+
+    def end_stage(self, stage, sim, wall0):
+        """Log and record the stage, write its checkpoint and read it back for the next stage."""
+        c, state, log = self.c, self.state, self.loop.log
         ratio = observables.unbalanced_force(sim)
         if stage in ("pour", "refill", "settle") and ratio >= c["settle_ratio"]:
-            loop.log(f"warning: stage {stage} reached settle_max_time = {c['settle_max_time']} s with unbalanced force "
-                     f"ratio {ratio:.3g} >= settle_ratio = {c['settle_ratio']}; going on")
+            log(f"warning: stage {stage} reached settle_max_time = {c['settle_max_time']} s with unbalanced force "
+                f"ratio {ratio:.3g} >= settle_ratio = {c['settle_ratio']}; going on")
         if stage == "vibrate":
             sim.set_friction_scale(1.0)
         top = observables.bed_top(sim)
-        state["stages"].append({"stage": stage, "t_start": t0, "t_end": sim.time, "step_end": sim.step,
-                                "spheres": comm.allreduce_sum_int(sim.particles.n_local), "unbalanced_force": ratio,
-                                "bed_top": top, "sleeper_z": float(sim.boxes.center[0, 2]) if sim.boxes is not None else None,
-                                "wall_s": _time.perf_counter() - stage_wall})
-        loop.log(f"stage {stage} done at t = {sim.time:.4f} s, step {sim.step}: unbalanced force ratio {ratio:.3g}, "
-                 f"bed top {top:.4f} m" + (f", sleeper bottom {sim.boxes.center[0, 2] - sim.boxes.half[0, 2]:.4f} m"
-                                          if sim.boxes is not None else ""))
+        sleeper = sim.boxes.center[0, 2] if sim.boxes is not None else None
+        state["stages"].append({"stage": stage, "t_start": state["stage_t0"], "t_end": sim.time, "step_end": sim.step,
+                                "spheres": self.comm.allreduce_sum_int(sim.particles.n_local),
+                                "unbalanced_force": ratio, "bed_top": top,
+                                "sleeper_z": None if sleeper is None else float(sleeper),
+                                "wall_s": _time.perf_counter() - wall0})
+        log(f"stage {stage} done at t = {sim.time:.4f} s, step {sim.step}: unbalanced force ratio {ratio:.3g}, "
+            f"bed top {top:.4f} m" + ("" if sleeper is None else f", sleeper bottom {sleeper - sim.boxes.half[0, 2]:.4f} m"))
         if stage != "load":
-            prep.append(prep_sample(sim, stage))
+            self.prep.append(prep_sample(sim, stage))
         if stage == "settle":  # the first row of the load record: the sleeper where cycling starts
-            series.append(load_sample(sim, sim.boxes.center[0], load=c["f_min"]))
+            self.series.append(load_sample(sim, sim.boxes.center[0], load=c["f_min"]))
         state.update(stage=state["stage"] + 1, started=False)
-        written = loop.checkpoint(sim, f"end of stage {stage}")
+        written = self.loop.checkpoint(sim, f"end of stage {stage}")
         if state["stage"] < len(STAGES):
-            tables, meta = read_checkpoint(written)
-    prep.close()
-    series.close()
-    if sim is None:
-        loop.log(f"the run in {out} is complete (its newest checkpoint is after the last stage); "
-                 "nothing to run (--fresh starts over)")
-    elif loop.status == 0 and comm.rank == 0:
-        finish(out, results, sim, state, c, path, comm.size, _time.perf_counter() - t_start)
-    loop.close()
-    return loop.status
+            self.tables, self.meta = read_checkpoint(written)
 
 
 def plot_preparation(h5_path, png_path):
