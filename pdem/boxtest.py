@@ -46,7 +46,8 @@ from .generators import loose_cloud
 from .io.checkpoint import CheckpointError, read_checkpoint
 from .io.timeseries import TimeSeriesWriter, write_table
 from .loads import Haversine
-from .run import RunLoop, prepare_output, resume_point, write_root_attrs
+from .run import (RunLoop, plot_energy, prepare_output, resume_point, save_figure, series_figure,
+                  write_root_attrs)
 from .scene import sphere_columns
 from .simulation import Timers
 from .state import FIELDS
@@ -455,23 +456,13 @@ class BoxTestRun:
 
 def plot_preparation(h5_path, png_path):
     """Bed top, sleeper bottom, kinetic energy and unbalanced force over the preparation."""
-    import h5py
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    with h5py.File(h5_path, "r") as f:
-        s = {k: f["series"][k][...] for k in f["series"]}
-    fig, ax = plt.subplots(3, 1, figsize=(8, 8), sharex=True)
+    s, fig, ax = series_figure(h5_path, 3, 1, (8, 8))
     t = s["time"]
     ax[0].plot(t, s["bed_top"], label="top of the ballast")
     ax[0].plot(t, s["sleeper_z"], label="sleeper centre")
     ax[0].set_ylabel("height [m]")
     ax[0].legend()
-    ke = s["kinetic_energy"]
-    ax[1].semilogy(t, np.maximum(ke, 1e-12 * max(float(ke.max()), 1e-300)))
-    ax[1].set_ylabel("kinetic energy [J]")
+    plot_energy(ax[1], t, s["kinetic_energy"])
     ax[2].semilogy(t, np.maximum(s["unbalanced_force"], 1e-6))
     ax[2].set_ylabel("unbalanced force ratio [-]")
     ax[2].set_xlabel("time [s]")
@@ -481,9 +472,7 @@ def plot_preparation(h5_path, png_path):
             for a in ax:
                 a.axvline(starts[0], color="0.7", lw=0.8)
             ax[0].text(starts[0], ax[0].get_ylim()[1], STAGES[k], fontsize=8, va="top")
-    fig.tight_layout()
-    fig.savefig(png_path, dpi=110)
-    plt.close(fig)
+    save_figure(fig, png_path)
 
 
 def finish(out, results, sim, state, c, path, ranks, wall_s):

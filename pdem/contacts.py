@@ -12,6 +12,8 @@ One `ContactList` per contact kind (sphere–sphere, sphere–wall, sphere–fac
   carried from step to step; the widths are set by the contact law.
 - per step outputs: ``force`` [N] on the first body (sphere–sphere) or on the sphere (walls,
   facets), ``torque_i``/``torque_j`` [N·m], ``overlap`` [m] (0 when not in contact).
+  Invariant: a row with ``state == 0`` has zero history and zero outputs (`replace` clears the
+  rows it installs, the force loops clear a contact that opens), so a loop may skip it.
 
 History survives neighbour-list rebuilds and migration because it is looked up by ``key``.
 """
@@ -63,6 +65,10 @@ class ContactList:
         if cap != self.capacity:
             self._alloc(cap)
         self.state, self.params, self.history = new_state, new_params, new_hist
+        # a row with state 0 is clear (zero history and outputs): the force loops skip such rows
+        # while the pair stays apart instead of clearing them every step
+        for out in (self.force, self.torque_i, self.torque_j, self.overlap):
+            out[:n] = 0.0
         self.i[:n] = i
         self.j[:n] = j
         self.key[:n] = key

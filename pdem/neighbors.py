@@ -187,27 +187,33 @@ def build_incidence(n_local, n_pairs, pi, pj, gid):
 
 
 @njit(cache=True)
+def candidates_from_mask(near):
+    """(ptr[n+1], sphere[m], boundary[m]) CSR of the true entries of ``near[n, nb]``, in boundary
+    index order per sphere: the candidate lists of walls, facets and boxes."""
+    n, nb = near.shape
+    ptr = np.zeros(n + 1, np.int64)
+    for s in range(n):
+        ptr[s + 1] = ptr[s] + np.count_nonzero(near[s])
+    ps = np.empty(ptr[n], np.int64)
+    pb = np.empty(ptr[n], np.int64)
+    k = 0
+    for s in range(n):
+        for b in range(nb):
+            if near[s, b]:
+                ps[k] = s
+                pb[k] = b
+                k += 1
+    return ptr, ps, pb
+
+
+@njit(cache=True)
 def build_wall_candidates(pos, radius, n_local, skin, wall_axis, wall_pos):
     """(ptr[n_local+1], sphere[m], wall[m]): walls within r + skin of each owned sphere."""
-    nw = wall_axis.shape[0]
-    ptr = np.zeros(n_local + 1, np.int64)
+    near = np.zeros((n_local, wall_axis.shape[0]), np.bool_)
     for s in range(n_local):
-        c = 0
-        for w in range(nw):
-            if abs(pos[s, wall_axis[w]] - wall_pos[w]) <= radius[s] + skin:
-                c += 1
-        ptr[s + 1] = ptr[s] + c
-    m = ptr[n_local]
-    ps = np.empty(m, np.int64)
-    pw = np.empty(m, np.int64)
-    k = 0
-    for s in range(n_local):
-        for w in range(nw):
-            if abs(pos[s, wall_axis[w]] - wall_pos[w]) <= radius[s] + skin:
-                ps[k] = s
-                pw[k] = w
-                k += 1
-    return ptr, ps, pw
+        for w in range(wall_axis.shape[0]):
+            near[s, w] = abs(pos[s, wall_axis[w]] - wall_pos[w]) <= radius[s] + skin
+    return candidates_from_mask(near)
 
 
 @njit(inline="always", cache=True)
@@ -228,25 +234,11 @@ def _near_facet(px, py, pz, reach, g, verts):
 @njit(cache=True)
 def build_facet_candidates(pos, radius, n_local, skin, facet_geom, facet_vertices):
     """(ptr[n_local+1], sphere[m], facet[m]): facets within r + skin of each owned sphere."""
-    nf = facet_geom.shape[0]
-    ptr = np.zeros(n_local + 1, np.int64)
+    near = np.zeros((n_local, facet_geom.shape[0]), np.bool_)
     for s in range(n_local):
-        c = 0
-        for f in range(nf):
-            if _near_facet(pos[s, 0], pos[s, 1], pos[s, 2], radius[s] + skin, facet_geom[f], facet_vertices[f]):
-                c += 1
-        ptr[s + 1] = ptr[s] + c
-    m = ptr[n_local]
-    ps = np.empty(m, np.int64)
-    pf = np.empty(m, np.int64)
-    k = 0
-    for s in range(n_local):
-        for f in range(nf):
-            if _near_facet(pos[s, 0], pos[s, 1], pos[s, 2], radius[s] + skin, facet_geom[f], facet_vertices[f]):
-                ps[k] = s
-                pf[k] = f
-                k += 1
-    return ptr, ps, pf
+        for f in range(facet_geom.shape[0]):
+            near[s, f] = _near_facet(pos[s, 0], pos[s, 1], pos[s, 2], radius[s] + skin, facet_geom[f], facet_vertices[f])
+    return candidates_from_mask(near)
 
 
 @kernel(size_arg=2)
@@ -276,25 +268,11 @@ def _near_box(pos, s, reach, c, h):
 def build_box_candidates(pos, radius, n_local, skin, box_center, box_half):
     """(ptr[n_local+1], sphere[m], box[m]): boxes within r + skin of each owned sphere (distance
     from the centre to the box's AABB), in box index order per sphere."""
-    nb = box_center.shape[0]
-    ptr = np.zeros(n_local + 1, np.int64)
+    near = np.zeros((n_local, box_center.shape[0]), np.bool_)
     for s in range(n_local):
-        c = 0
-        for b in range(nb):
-            if _near_box(pos, s, radius[s] + skin, box_center[b], box_half[b]):
-                c += 1
-        ptr[s + 1] = ptr[s] + c
-    m = ptr[n_local]
-    ps = np.empty(m, np.int64)
-    pb = np.empty(m, np.int64)
-    k = 0
-    for s in range(n_local):
-        for b in range(nb):
-            if _near_box(pos, s, radius[s] + skin, box_center[b], box_half[b]):
-                ps[k] = s
-                pb[k] = b
-                k += 1
-    return ptr, ps, pb
+        for b in range(box_center.shape[0]):
+            near[s, b] = _near_box(pos, s, radius[s] + skin, box_center[b], box_half[b])
+    return candidates_from_mask(near)
 
 
 @njit(cache=True)

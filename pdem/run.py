@@ -52,20 +52,38 @@ def write_root_attrs(path, scene_spec, kind):
         f.attrs["kind"] = kind
 
 
-def plot_series(results_path, png_path):
+def series_figure(h5_path, rows, cols, size):
+    """(series dict, figure, axes) for a plot of the /series of a results file (Agg backend)."""
     import h5py
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    with h5py.File(results_path, "r") as f:
+    with h5py.File(h5_path, "r") as f:
         s = {k: f["series"][k][...] for k in f["series"]}
-    fig, ax = plt.subplots(2, 2, figsize=(10, 7), sharex=True)
+    fig, ax = plt.subplots(rows, cols, figsize=size, sharex=True)
+    return s, fig, ax
+
+
+def save_figure(fig, png_path):
+    import matplotlib.pyplot as plt
+
+    fig.tight_layout()
+    fig.savefig(png_path, dpi=110)
+    plt.close(fig)
+
+
+def plot_energy(ax, t, ke):
+    """Kinetic energy on a log axis, clipped 12 decades below its maximum (it starts at 0)."""
+    ax.semilogy(t, np.maximum(ke, 1e-12 * max(float(ke.max()), 1e-300)))
+    ax.set_ylabel("kinetic energy [J]")
+
+
+def plot_series(results_path, png_path):
+    s, fig, ax = series_figure(results_path, 2, 2, (10, 7))
     t = s["time"]
-    ke = s["kinetic_energy"]
-    ax[0, 0].semilogy(t, np.maximum(ke, 1e-12 * max(float(ke.max()), 1e-300)))
-    ax[0, 0].set_ylabel("kinetic energy [J]")
+    plot_energy(ax[0, 0], t, s["kinetic_energy"])
     ax[0, 1].plot(t, s["contacts_per_particle"])
     ax[0, 1].set_ylabel("contacts per particle [-]")
     ax[1, 0].semilogy(t, np.maximum(s["unbalanced_force"], 1e-12))
@@ -74,9 +92,7 @@ def plot_series(results_path, png_path):
     ax[1, 1].set_ylabel("force on the floor, z [N]")
     for a in ax[1]:
         a.set_xlabel("time [s]")
-    fig.tight_layout()
-    fig.savefig(png_path, dpi=110)
-    plt.close(fig)
+    save_figure(fig, png_path)
 
 
 def resume_point(comm, ckdir, fresh):

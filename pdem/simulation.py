@@ -68,9 +68,11 @@ class Simulation:
         # rigid boxes (pdem.boxes): replicated, integrated from the exact global sum of their contacts
         self.boxes = boxes if boxes is not None and len(boxes) else None
         self.sb = ContactList(linear.N_PARAMS, linear.HISTORY_WIDTH) if self.boxes is not None else None
-        self.moving_boundaries = bool((len(walls) and np.any(walls.velocity)) or (len(facets) and np.any(facets.velocity))
-                                      or np.any(particles.vel[: particles.n_local][particles.blocked[: particles.n_local] == 63])
-                                      or self.boxes is not None)  # a box's load and weight do external work
+        # a box's load and weight do external work; the flag must be the same on every rank
+        self.moving_boundaries = bool(self.comm.any_flag(bool(
+            (len(walls) and np.any(walls.velocity)) or (len(facets) and np.any(facets.velocity))
+            or np.any(particles.vel[: particles.n_local][particles.blocked[: particles.n_local] == 63])
+            or self.boxes is not None)))
         self._empty_ptr = np.zeros(1, np.int64)
         self.rebuild()
         self.update_dt(force=True)
@@ -400,7 +402,7 @@ class Simulation:
             "dt": float(self.dt),
             "n_rebuilds": int(self.n_rebuilds),
             "energy_reference": None if self.energy_reference is None else [float(x) for x in self.energy_reference],
-            "moving_boundaries": bool(self.comm.any_flag(bool(self.moving_boundaries))),
+            "moving_boundaries": self.moving_boundaries,
             "n_bodies": int(self.comm.allreduce_sum_int(p.n_local)),
             "scene": self.spec,
             "pdem_version": __version__,

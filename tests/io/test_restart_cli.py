@@ -20,11 +20,11 @@ import h5py
 import numpy as np
 import pytest
 
+from pdem_cli import MPIEXEC, pdem_cmd, run_pdem
 from pdem.io.checkpoint import list_checkpoints, read_checkpoint
 
 N_STEPS = 3000
 K_STEP = 2137
-MPIEXEC = Path(sys.executable).parent / "mpiexec"
 
 SCENE = """
 [simulation]
@@ -62,18 +62,6 @@ walls_material = "ballast"
 """
 
 pytestmark = pytest.mark.skipif(not MPIEXEC.exists(), reason="no mpiexec next to the Python executable")
-
-
-def pdem_cmd(n_ranks, scene, out, *extra):
-    cmd = [sys.executable, "-m", "pdem", "run", str(scene), "--out", str(out), *extra]
-    return ([str(MPIEXEC), "-n", str(n_ranks)] + cmd) if n_ranks > 1 else cmd
-
-
-def run_pdem(n_ranks, scene, out, *extra, expect=0):
-    env = dict(os.environ, OMP_NUM_THREADS="1")
-    r = subprocess.run(pdem_cmd(n_ranks, scene, out, *extra), capture_output=True, text=True, timeout=600, env=env)
-    assert r.returncode == expect, f"exit {r.returncode}, expected {expect}\n{r.stdout[-3000:]}\n{r.stderr[-3000:]}"
-    return r
 
 
 def final_tables(out, step=N_STEPS):

@@ -11,7 +11,6 @@ import os
 import shutil
 import signal
 import subprocess
-import sys
 import time
 from pathlib import Path
 
@@ -20,9 +19,9 @@ import numpy as np
 import pytest
 
 from analysis.io import read_box_test
+from pdem_cli import MPIEXEC, pdem_cmd, run_pdem
 from pdem.io.checkpoint import list_checkpoints, read_checkpoint
 
-MPIEXEC = Path(sys.executable).parent / "mpiexec"
 SCENE = """[simulation]
 dt = "auto"
 damping = 0.3
@@ -71,18 +70,6 @@ cycles = 2
 N_CYCLES, F_MAX, SLEEPER_WEIGHT = 2, 300.0, 5.0 * 9.81
 
 pytestmark = pytest.mark.skipif(not MPIEXEC.exists(), reason="no mpiexec next to the Python executable")
-
-
-def pdem_cmd(n_ranks, scene, out, *extra):
-    cmd = [sys.executable, "-m", "pdem", "run", str(scene), "--out", str(out), *extra]
-    return ([str(MPIEXEC), "-n", str(n_ranks)] + cmd) if n_ranks > 1 else cmd
-
-
-def run_pdem(n_ranks, scene, out, *extra, expect=0):
-    env = dict(os.environ, OMP_NUM_THREADS="1")
-    r = subprocess.run(pdem_cmd(n_ranks, scene, out, *extra), capture_output=True, text=True, timeout=600, env=env)
-    assert r.returncode == expect, f"exit {r.returncode}, expected {expect}\n{r.stdout[-3000:]}\n{r.stderr[-3000:]}"
-    return r
 
 
 def groups(path):
