@@ -44,10 +44,11 @@ from .cycles import CycleRecorder
 from .errors import InputError
 from .generators import loose_cloud
 from .io.checkpoint import CheckpointError, read_checkpoint
+from .io.snapshots import SnapshotWriter
 from .io.timeseries import TimeSeriesWriter, write_table
 from .loads import Haversine
 from .run import (RunLoop, plot_energy, prepare_output, resume_point, save_figure, series_figure,
-                  write_root_attrs)
+                  write_root_attrs, write_snapshot)
 from .scene import sphere_columns
 from .simulation import Timers
 from .state import FIELDS
@@ -314,6 +315,9 @@ class BoxTestRun:
         self.series = TimeSeriesWriter(self.results, LOAD_SERIES, every=10, comm=comm, append=restart is not None,
                                        restart_step=restart)
         self.loop.flush += [self.prep, self.series]
+        every = self.run_cfg["snapshot_every"]
+        self.snaps = (SnapshotWriter(self.out, comm=comm, append=restart is not None, restart_step=restart,
+                                     log=lambda m: print(m, flush=True)) if every else None)
         if comm.rank == 0:
             write_root_attrs(self.results, {k: doc[k] for k in ("simulation", "materials", "box_test") if k in doc},
                              "box_test")
@@ -403,10 +407,13 @@ class BoxTestRun:
                                   f"{done['force_max']:.1f} N")
                 if run["output_every"] and sim.step % run["output_every"] == 0:
                     self.series.append(load_sample(sim, rec.reference))
+                self.snapshot(sim)
 
             return on_step, lambda sim: len(rec.records) >= c["cycles"], 1, state["load_start"] + c["cycles"] / c["frequency"]
         if sim.step == 0:  # later stages start at the step of the row that ended the last one
             self.prep.append(prep_sample(sim, stage))
+            if self.snaps is not None:
+                write_snapshot(self.snaps, sim)
         g = np.asarray(scene.settings["gravity"], np.float64)
 
         def on_step(sim):
@@ -414,6 +421,7 @@ class BoxTestRun:
                 sim.gravity = g + shaking(c, sim.time - t0)
             if run["output_every"] and sim.step % run["output_every"] == 0:
                 self.prep.append(prep_sample(sim, stage))
+            self.snapshot(sim)
 
         if stage == "vibrate":
             t_end = t0 + c["vibration_time"]
@@ -425,6 +433,12 @@ class BoxTestRun:
                                          and observables.unbalanced_force(sim) < c["settle_ratio"])
 
         return on_step, settled, c["check_every"], t_end
+
+    def snapshot(self, sim, stage_end=False):
+        """ParaView snapshot every run.snapshot_every steps and at the end of every stage."""
+        every = self.run_cfg["snapshot_every"]
+        if self.snaps is not None and (sim.step % every == 0) != stage_end:
+            write_snapshot(self.snaps, sim)
 
     def end_stage(self, stage, sim, wall0):
         """Log and record the stage, write its checkpoint and read it back for the next stage."""
@@ -444,6 +458,7 @@ class BoxTestRun:
                                 "wall_s": _time.perf_counter() - wall0})
         log(f"stage {stage} done at t = {sim.time:.4f} s, step {sim.step}: unbalanced force ratio {ratio:.3g}, "
             f"bed top {top:.4f} m" + ("" if sleeper is None else f", sleeper bottom {sleeper - sim.boxes.half[0, 2]:.4f} m"))
+        self.snapshot(sim, stage_end=True)
         if stage != "load":
             self.prep.append(prep_sample(sim, stage))
         if stage == "settle":  # the first row of the load record: the sleeper where cycling starts

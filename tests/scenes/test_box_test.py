@@ -31,6 +31,7 @@ slab_axis = "x"
 [run]
 progress_every = 0
 output_every = 25
+snapshot_every = 2000
 checkpoint_keep = 0
 
 [materials.ballast]
@@ -78,7 +79,7 @@ def groups(path):
 
 
 def assert_same_run(ref, got):
-    for name in ("results.h5", "preparation.h5"):
+    for name in ("results.h5", "preparation.h5", "snapshots.h5"):
         a, b = groups(ref / name), groups(got / name)
         assert sorted(a) == sorted(b), name
         for g in a:
@@ -107,7 +108,7 @@ def test_every_stage_runs_and_leaves_results(runs):
     out = base / "r1"
     for stage in ("pour", "refill", "vibrate", "settle", "load"):
         assert f"stage {stage} done" in r1.stdout
-    for f in ("results.h5", "preparation.h5", "preparation.png", "summary.txt", "analysis/loops.png",
+    for f in ("results.h5", "preparation.h5", "preparation.png", "summary.txt", "snapshots.xmf", "analysis/loops.png",
               "analysis/settlement.png", "analysis/stiffness.png", "analysis/summary.txt"):
         assert (out / f).stat().st_size > 0, f
     res = read_box_test(out / "results.h5")
