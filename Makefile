@@ -46,8 +46,10 @@ test-mpi: venv
 validate: venv
 	$(PYTEST) -m validate tests
 
+# Throughput on one rank (1 and 2 threads), then 1 vs 2 MPI ranks (bench/results.json, docs/performance.md)
 bench: venv
 	$(VPY) -m bench
+	$(VPY) -m bench --mpi
 
 clean:
 	rm -rf $(VENV) runs bench/cache
