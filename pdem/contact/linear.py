@@ -179,45 +179,6 @@ def sphere_sphere_forces(n, pi, pj, state, params, history, force, torque_i, tor
         overlap[p] = pen
 
 
-@njit(inline="always", cache=True)
-def _plane_contact(p, s, fresh, nx, ny, nz, pen, r, m_other, v_other, state, params, history, force, torque_i,
-                   overlap, vel, angvel, material, young, poisson, friction, dt):
-    """Ip2 (once), relative velocity and Law2 of a sphere on a flat boundary (Yade's wall; the
-    same for a box face, edge or corner): normal n from the boundary to the sphere centre,
-    penetration ``pen``, boundary material ``m_other`` and velocity ``v_other[3]``."""
-    if fresh:
-        ms = material[s]
-        kn, ks, tphi = ip2(young[m_other], poisson[m_other], friction[m_other], r, young[ms], poisson[ms], friction[ms], r)
-        params[p, 0] = kn
-        params[p, 1] = ks
-        params[p, 2] = tphi
-        state[p] = 1
-    ox, oy, oz, tx, ty, tz = _axes(fresh, p, history, nx, ny, nz, angvel[s, 0], angvel[s, 1], angvel[s, 2], dt)
-    rs = r + r
-    alpha = rs / (rs - pen)
-    ax = (vel[s, 0] - v_other[0]) * alpha
-    ay = (vel[s, 1] - v_other[1]) * alpha
-    az = (vel[s, 2] - v_other[2]) * alpha
-    bx, by, bz = cross3(angvel[s, 0], angvel[s, 1], angvel[s, 2], (-r) * nx, (-r) * ny, (-r) * nz)
-    rvx = ax + bx
-    rvy = ay + by
-    rvz = az + bz
-    dn = dot3(nx, ny, nz, rvx, rvy, rvz)
-    rvx = rvx - dn * nx
-    rvy = rvy - dn * ny
-    rvz = rvz - dn * nz
-    fx, fy, fz = law2(p, fresh, nx, ny, nz, pen, rvx * dt, rvy * dt, rvz * dt, ox, oy, oz, tx, ty, tz, params, history)
-    force[p, 0] = -fx
-    force[p, 1] = -fy
-    force[p, 2] = -fz
-    mx, my, mz = cross3(nx, ny, nz, fx, fy, fz)
-    l2 = r - 0.5 * pen
-    torque_i[p, 0] = l2 * mx
-    torque_i[p, 1] = l2 * my
-    torque_i[p, 2] = l2 * mz
-    overlap[p] = pen
-
-
 @kernel()
 def sphere_wall_forces(n, ps, pw, state, params, history, force, torque_i, torque_j, overlap,
                        pos, vel, angvel, radius, material, young, poisson, friction,
@@ -244,8 +205,43 @@ def sphere_wall_forces(n, ps, pw, state, params, history, force, torque_i, torqu
         nx = sign if a == 0 else 0.0
         ny = sign if a == 1 else 0.0
         nz = sign if a == 2 else 0.0
-        _plane_contact(p, s, fresh, nx, ny, nz, pen, r, wall_material[w], wall_vel[w], state, params, history, force,
-                       torque_i, overlap, vel, angvel, material, young, poisson, friction, dt)
+        # Ip2, relative velocity and Law2 of a sphere on a flat boundary (the same lines are in
+        # sphere_box_forces). Written out on purpose: a shared inline helper that took the arrays
+        # and passed them on to _axes/law2 cost ~20 atomic reference-count updates per contact
+        # (numba keeps them across nested inlined calls) and made this loop 5x slower.
+        if fresh:
+            mw = wall_material[w]
+            ms = material[s]
+            kn, ks, tphi = ip2(young[mw], poisson[mw], friction[mw], r, young[ms], poisson[ms], friction[ms], r)
+            params[p, 0] = kn
+            params[p, 1] = ks
+            params[p, 2] = tphi
+            state[p] = 1
+        ox, oy, oz, tx, ty, tz = _axes(fresh, p, history, nx, ny, nz, angvel[s, 0], angvel[s, 1], angvel[s, 2], dt)
+        rs = r + r
+        alpha = rs / (rs - pen)
+        ax = (vel[s, 0] - wall_vel[w, 0]) * alpha
+        ay = (vel[s, 1] - wall_vel[w, 1]) * alpha
+        az = (vel[s, 2] - wall_vel[w, 2]) * alpha
+        bx, by, bz = cross3(angvel[s, 0], angvel[s, 1], angvel[s, 2], (-r) * nx, (-r) * ny, (-r) * nz)
+        rvx = ax + bx
+        rvy = ay + by
+        rvz = az + bz
+        dn = dot3(nx, ny, nz, rvx, rvy, rvz)
+        rvx = rvx - dn * nx
+        rvy = rvy - dn * ny
+        rvz = rvz - dn * nz
+        fx, fy, fz = law2(p, fresh, nx, ny, nz, pen, rvx * dt, rvy * dt, rvz * dt, ox, oy, oz, tx, ty, tz,
+                          params, history)
+        force[p, 0] = -fx
+        force[p, 1] = -fy
+        force[p, 2] = -fz
+        mx, my, mz = cross3(nx, ny, nz, fx, fy, fz)
+        l2 = r - 0.5 * pen
+        torque_i[p, 0] = l2 * mx
+        torque_i[p, 1] = l2 * my
+        torque_i[p, 2] = l2 * mz
+        overlap[p] = pen
 
 
 @kernel()
@@ -413,5 +409,37 @@ def sphere_box_forces(n, ps, pb, state, params, history, force, torque_i, torque
         if pen < 0.0:
             _clear(p, state, history, force, torque_i, torque_j, overlap)
             continue
-        _plane_contact(p, s, fresh, nx, ny, nz, pen, r, box_material[b], box_vel[b], state, params, history, force,
-                       torque_i, overlap, vel, angvel, material, young, poisson, friction, dt)
+        # the plane-contact lines of sphere_wall_forces (see there why they are not shared)
+        if fresh:
+            mb = box_material[b]
+            ms = material[s]
+            kn, ks, tphi = ip2(young[mb], poisson[mb], friction[mb], r, young[ms], poisson[ms], friction[ms], r)
+            params[p, 0] = kn
+            params[p, 1] = ks
+            params[p, 2] = tphi
+            state[p] = 1
+        ox, oy, oz, tx, ty, tz = _axes(fresh, p, history, nx, ny, nz, angvel[s, 0], angvel[s, 1], angvel[s, 2], dt)
+        rs = r + r
+        alpha = rs / (rs - pen)
+        ax = (vel[s, 0] - box_vel[b, 0]) * alpha
+        ay = (vel[s, 1] - box_vel[b, 1]) * alpha
+        az = (vel[s, 2] - box_vel[b, 2]) * alpha
+        bx, by, bz = cross3(angvel[s, 0], angvel[s, 1], angvel[s, 2], (-r) * nx, (-r) * ny, (-r) * nz)
+        rvx = ax + bx
+        rvy = ay + by
+        rvz = az + bz
+        dn = dot3(nx, ny, nz, rvx, rvy, rvz)
+        rvx = rvx - dn * nx
+        rvy = rvy - dn * ny
+        rvz = rvz - dn * nz
+        fx, fy, fz = law2(p, fresh, nx, ny, nz, pen, rvx * dt, rvy * dt, rvz * dt, ox, oy, oz, tx, ty, tz,
+                          params, history)
+        force[p, 0] = -fx
+        force[p, 1] = -fy
+        force[p, 2] = -fz
+        mx, my, mz = cross3(nx, ny, nz, fx, fy, fz)
+        l2 = r - 0.5 * pen
+        torque_i[p, 0] = l2 * mx
+        torque_i[p, 1] = l2 * my
+        torque_i[p, 2] = l2 * mz
+        overlap[p] = pen
