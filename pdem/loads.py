@@ -1,7 +1,7 @@
 """Force programs of force-controlled bodies (SPEC.md 1.6): the magnitude F(t) [N] of the load.
 
 A program is a small immutable spec with ``value(t)`` (t [s] since the start of the run) and
-``spec()`` (JSON-able, for the scene description and checkpoints). The direction is the body's
+``spec()`` (JSON-able, for the scene description). The direction is the body's
 (`pdem.boxes`), by default downwards (−z). Imports nothing from pdem but the errors.
 
 - `Constant(force)`: F = force.
@@ -52,20 +52,9 @@ class Haversine:
         self.start = _num(f"{label}.start", start, 0.0, allow="a time >= 0 [s]")
 
     @property
-    def period(self):
-        return 1.0 / self.frequency
-
-    @property
     def end(self):
         """Time [s] at which the last cycle ends."""
         return self.start + self.cycles / self.frequency
-
-    def cycle(self, t):
-        """Index of the cycle running at time t (−1 before the start, ``cycles`` after the end)."""
-        if t < self.start:
-            return -1
-        k = int((t - self.start) * self.frequency)
-        return min(k, self.cycles)
 
     def value(self, t):
         if t <= self.start or t >= self.end:
@@ -93,17 +82,3 @@ class Impulse:
 
     def spec(self):
         return {"type": "impulse", "f0": self.f0, "duration": self.duration, "start": self.start}
-
-
-PROGRAMS = {"constant": Constant, "haversine": Haversine, "impulse": Impulse}
-
-
-def from_spec(spec, label="load"):
-    """Inverse of ``spec()``: a dict with ``type`` and the program's fields."""
-    if not isinstance(spec, dict) or spec.get("type") not in PROGRAMS:
-        raise InputError(f"{label} = {spec!r}: must be a table with type = one of {', '.join(PROGRAMS)}")
-    kw = {k: v for k, v in spec.items() if k != "type"}
-    try:
-        return PROGRAMS[spec["type"]](**kw, label=label)
-    except TypeError as e:
-        raise InputError(f"{label}: {e}") from None

@@ -5,7 +5,7 @@ the rank count (exact sums, max/min reductions).
   magnitude (Yade's ``unbalancedForce``) [-]
 - wall forces: total force of the spheres on each wall [N] (exact sums over contacts)
 - top of the bed: max over spheres of z + r [m]
-- rigid boxes: force of the spheres on each box [N] (exact sums), centre [m], applied load [N]
+- rigid boxes: force of the spheres on each box [N] (exact sums) and centre [m]
 """
 import numpy as np
 
@@ -31,7 +31,7 @@ def unbalanced_force(sim):
     net = p.force[:nl][free] + p.mass[:nl][free, None] * sim.gravity
     body = np.linalg.norm(net, axis=1)
     mags = []
-    for cl in (sim.ss, sim.sw, sim.sf, getattr(sim, "sb", None)):
+    for cl in (sim.ss, sim.sw, sim.sf, sim.sb):
         if cl is None:
             continue
         rows = cl.real_rows()
@@ -58,20 +58,13 @@ def bed_top(sim):
 def box_forces(sim):
     """[n_boxes, 3] total force of the spheres on each rigid box [N] at the last force computation
     (an exact sum over all ranks: identical bits on any rank count)."""
-    if getattr(sim, "boxes", None) is None:
+    if sim.boxes is None:
         return np.zeros((0, 3))
     return sim.boxes.contact_force.copy()
 
 
 def box_positions(sim):
     """[n_boxes, 3] centre of each rigid box [m] (replicated: the same on every rank)."""
-    if getattr(sim, "boxes", None) is None:
+    if sim.boxes is None:
         return np.zeros((0, 3))
     return sim.boxes.center.copy()
-
-
-def box_loads(sim):
-    """[n_boxes, 3] applied load of each box's force program [N] in the last step."""
-    if getattr(sim, "boxes", None) is None:
-        return np.zeros((0, 3))
-    return sim.boxes.load_force.copy()

@@ -139,8 +139,7 @@ class Scene:
         cols = sphere_columns(pos, r, rho, self.next_gid() if first_gid is None else int(first_gid))
         cols.update(vel=vel, angvel=angvel, material=mat, blocked=mask)
         self.add_sphere_columns(cols)
-        gids = cols["gid"]
-        return gids
+        return cols["gid"]
 
     def next_gid(self):
         """The global id the next added sphere gets (one past the largest so far)."""
@@ -249,4 +248,4 @@ class Scene:
                           dt_safety=s["dt_safety"], dt_interval=s["dt_interval"], pwave_factor=s["pwave_factor"],
                           skin=skin, check_interval=s["check_interval"], max_overlap_ratio=s["max_overlap_ratio"],
                           energy_check=s["energy_check"], domain=domain, spec=json.loads(json.dumps(self.spec())),
-                          **({"boxes": copy.deepcopy(self.boxes)} if len(self.boxes) else {}))
+                          boxes=copy.deepcopy(self.boxes))

@@ -15,7 +15,7 @@ import numpy as np
 
 from . import forces, integrator, neighbors, timestep
 from .contact import linear
-from .contacts import ContactList, index_pair_keys, sphere_pair_keys
+from .contacts import KEY_SHIFT_SPHERE, ContactList, index_pair_keys, sphere_pair_keys
 from .errors import InstabilityError
 
 TIMERS = ("neighbours", "contacts", "integration", "communication", "output", "other")
@@ -91,7 +91,7 @@ class Simulation:
         self.domain.renumber_owned(order)
         pi, pj = neighbors.build_sphere_pairs(p.pos, p.radius, p.gid, p.n_local, p.n_total, self.skin, cell,
                                               8 * p.n_total + 1000)
-        self.ss.replace(pi, pj, sphere_pair_keys(pi, pj, p.gid), key_shift=32)  # contacts.KEY_SHIFT_SPHERE
+        self.ss.replace(pi, pj, sphere_pair_keys(pi, pj, p.gid), key_shift=KEY_SHIFT_SPHERE)
         self.inc_ptr, self.inc_pair, self.inc_first = neighbors.build_incidence(p.n_local, self.ss.n, self.ss.i, self.ss.j, p.gid)
         if self.sw is not None:
             self.w_ptr, ps, pw = neighbors.build_wall_candidates(p.pos, p.radius, p.n_local, self.skin,
@@ -376,7 +376,7 @@ class Simulation:
         tables = {"particles": p.columns()}
         keys = {"particles": ["gid"]}
         for attr, name in self.CHECKPOINT_CONTACTS:
-            cl = getattr(self, attr, None)
+            cl = getattr(self, attr)
             if cl is None:
                 continue
             rows = cl.real_rows()
@@ -391,8 +391,8 @@ class Simulation:
             tables["facets"] = {"index": np.arange(len(self.facets), dtype=np.int64), "geom": self.facets.geom.copy(),
                                 "vertices": self.facets.vertices.copy(), "velocity": self.facets.velocity.copy()}
             keys["facets"] = ["index"]
-        boxes = getattr(self, "boxes", None)
-        if boxes is not None and len(boxes):  # rigid boxes (pdem.boxes): the state their step evolves
+        boxes = self.boxes
+        if boxes is not None:  # rigid boxes (pdem.boxes): the state their step evolves
             tables["boxes"] = {"index": np.arange(len(boxes), dtype=np.int64), "center": boxes.center.copy(),
                                "velocity": boxes.velocity.copy()}
             keys["boxes"] = ["index"]
@@ -430,7 +430,7 @@ class Simulation:
             if n and (name not in tables or len(tables[name]["index"]) != n):
                 raise ValueError(f"table {name}: expected {n} rows (the scene's {name})")
         for attr, name in self.CHECKPOINT_CONTACTS:
-            if getattr(self, attr, None) is not None and name not in tables:
+            if getattr(self, attr) is not None and name not in tables:
                 raise ValueError(f"table {name} missing (the scene has contacts of that kind)")
         self.moving_boundaries = bool(meta.get("moving_boundaries", self.moving_boundaries))
         self.load_state(tables)
@@ -442,7 +442,7 @@ class Simulation:
         self.energy_reference = None if ref is None else [float(x) for x in ref]
         return self
 
-    def load_state(self, tables, rebuild=True):
+    def load_state(self, tables):
         """Replace the bodies by ``tables["particles"]`` (FIELDS columns, any order; distributed
         like at build) and give back the contact history of ``tables["contacts/<kind>"]`` (rows
         whose bodies are gone are dropped at the next rebuild); walls, facets and boxes get their
@@ -475,7 +475,7 @@ class Simulation:
             self.boxes.velocity[:] = tables["boxes"]["velocity"]
         # contacts: every rank gets every row; `replace` at the rebuild keeps the keys it needs
         for attr, name in self.CHECKPOINT_CONTACTS:
-            cl = getattr(self, attr, None)
+            cl = getattr(self, attr)
             if cl is None or name not in tables:
                 continue
             t = tables[name]
@@ -483,8 +483,7 @@ class Simulation:
             cl.n = 0  # candidate rows of the build-time rebuild: no contacts yet (no force computed)
             cl.add_carried(key, np.ones(len(key), np.int8), np.asarray(t["params"], np.float64),
                            np.asarray(t["history"], np.float64))
-        if rebuild:
-            self.rebuild()
+        self.rebuild()
         return self
 
     def set_friction_scale(self, factor):

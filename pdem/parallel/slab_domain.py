@@ -160,7 +160,7 @@ class SlabDomain:
         p = sim.particles
         nl = p.n_local
         w = np.ones(nl)
-        for cl in (sim.ss, sim.sw, sim.sf, getattr(sim, "sb", None)):
+        for cl in (sim.ss, sim.sw, sim.sf, sim.sb):
             if cl is None or cl.n == 0:
                 continue
             rows = cl.real_rows()
@@ -244,7 +244,7 @@ class SlabDomain:
         bi = np.concatenate([mig_dest[:, None].astype(np.int64), bi], axis=1)
         # contacts: every real row that involves a migrating body
         parcels = []
-        for cl, sphere in ((sim.ss, True), (sim.sw, False), (sim.sf, False), (getattr(sim, "sb", None), False)):
+        for cl, sphere in ((sim.ss, True), (sim.sw, False), (sim.sf, False), (sim.sb, False)):
             if cl is None:
                 continue
             real = cl.real_rows()
