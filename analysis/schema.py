@@ -51,6 +51,20 @@ CYCLE_UNITS = {
     "force_peak": "N",
     "force_min": "N",
 }
+# Optional per-cycle columns pdem writes too: the extremes of the applied load and the step at
+# which the cycle was recorded.
+CYCLE_OPTIONAL_UNITS = {"load_max": "N", "load_min": "N", "step": "-"}
+
+# What pdem's runs write (pdem's driver imports these; the engine never imports analysis):
+# /series of a plain scene run (kind "scene"), the box test's load record (kind "box_test"),
+# its preparation record (preparation.h5, kind "preparation") and the /cycles table.
+RUN_SERIES = {"step": "-", "time": "s", "dt": "s", "kinetic_energy": "J", "elastic_energy": "J",
+              "contacts_per_particle": "-", "unbalanced_force": "-", "bed_top": "m", "floor_force_z": "N"}
+BOX_TEST_SERIES = {"step": "-", "time": "s", "dt": "s", "sleeper_load": "N", "sleeper_force": "N",
+                   "sleeper_settlement": "m", "kinetic_energy": "J", "contacts_per_particle": "-"}
+PREPARATION_SERIES = {"step": "-", "time": "s", "stage": "-", "n_spheres": "-", "kinetic_energy": "J",
+                      "unbalanced_force": "-", "contacts_per_particle": "-", "bed_top": "m", "sleeper_z": "m"}
+CYCLE_COLUMNS = {**CYCLE_UNITS, **CYCLE_OPTIONAL_UNITS}
 REQUIRED_SERIES = ("time", "step")
 BOX_SERIES = ("sleeper_load", "sleeper_force", "sleeper_settlement")
 CYCLE_FIELDS = tuple(CYCLE_UNITS)

@@ -9,11 +9,9 @@ import sys
 import time
 
 import numba
-import numpy as np
 
 from bench.__main__ import bed, make_scene
 from pdem import forces, integrator
-from pdem.contact import linear
 
 
 def timeit(f, reps=200):
@@ -28,16 +26,18 @@ def main(n=10000):
     pos, radius = bed(n)
     sim = make_scene(pos, radius).build()
     sim.run(50)
-    p, ss = sim.particles, sim.ss
-    y, nu, phi = sim.young, sim.poisson, sim.friction
+    pairs = sim.kind("sphere_sphere")
+    p, ss = sim.particles, pairs.contacts
+    other_f, other_i = pairs.kernel_arrays()
     hist = ss.history.copy(), ss.state.copy(), ss.params.copy()
 
     def ssf(k):
         return lambda: k(ss.n, ss.i, ss.j, ss.state, ss.params, ss.history, ss.force, ss.torque_i, ss.torque_j,
-                         ss.overlap, p.pos, p.vel, p.angvel, p.radius, p.material, y, nu, phi, sim.dt)
+                         ss.overlap, p.pos, p.vel, p.angvel, p.radius, p.material, p.mass, sim.props, other_f, other_i,
+                         sim.dt, sim.step)
 
     def sums(k):
-        return lambda: k(p.n_local, sim.inc_ptr, sim.inc_pair, sim.inc_first, ss.force, ss.torque_i, ss.torque_j,
+        return lambda: k(p.n_local, pairs.ptr, pairs.rows, pairs.first, ss.force, ss.torque_i, ss.torque_j,
                          p.force, p.torque)
 
     pos0, vel0, w0 = p.pos.copy(), p.vel.copy(), p.angvel.copy()
@@ -50,7 +50,7 @@ def main(n=10000):
 
     print(f"N = {n}, candidate pairs = {ss.n}, layer = {numba.config.THREADING_LAYER}, "
           f"NUMBA_NUM_THREADS = {numba.config.NUMBA_NUM_THREADS}")
-    for name, k, mk in (("sphere_sphere_forces", linear.sphere_sphere_forces, ssf),
+    for name, k, mk in (("sphere_sphere_forces", pairs.loop, ssf),
                         ("sum_sphere_pairs", forces.sum_sphere_pairs, sums),
                         ("leapfrog_cundall", integrator.leapfrog_cundall, integ)):
         numba.set_num_threads(1)

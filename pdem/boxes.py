@@ -11,12 +11,17 @@ its prescribed velocity), exactly as the sphere leapfrog (`pdem.integrator`). Th
 ``program.value(t) · direction`` with t the time at the start of the step (when the contact
 forces were computed); direction defaults to −z (a sleeper pushed down).
 
+Storage: the rows the contact loop reads (`pdem.contact.geometry.SphereBox`): ``kernel_f``
+[n, 9] = centre, half extents, velocity and ``kernel_i`` [n, 1] = material; the named
+attributes are views of them.
+
 Imports nothing from pdem but errors and loads.
 """
 import numpy as np
 
 from .errors import InputError
 from .loads import Constant, Haversine, Impulse
+from .state import DOF_ALL
 
 DOF_LETTERS = "xyzXYZ"
 ROTATIONS = 0b111000
@@ -31,7 +36,7 @@ def blocked_mask(label, blocked, fixed):
 
     Rotations are always blocked (orientation fixed); a string that frees one is refused."""
     if fixed:
-        return 63
+        return DOF_ALL
     if blocked is None:
         return ROTATIONS
     if not isinstance(blocked, str) or set(blocked) - set(DOF_LETTERS):
@@ -49,11 +54,9 @@ class Boxes:
     """Structure of arrays over the boxes of a scene (index order = declaration order)."""
 
     def __init__(self):
-        self.center = np.zeros((0, 3))
-        self.half = np.zeros((0, 3))
-        self.velocity = np.zeros((0, 3))
+        self.kernel_f = np.zeros((0, 9))
+        self.kernel_i = np.zeros((0, 1), np.int64)
         self.mass = np.zeros(0)
-        self.material = np.zeros(0, np.int64)
         self.blocked = np.zeros(0, np.int64)
         self.damping = np.zeros(0)
         self.direction = np.zeros((0, 3))
@@ -63,8 +66,17 @@ class Boxes:
         self.contact_force = np.zeros((0, 3))
         self.load_force = np.zeros((0, 3))
 
+    center = property(lambda self: self.kernel_f[:, 0:3])
+    half = property(lambda self: self.kernel_f[:, 3:6])
+    velocity = property(lambda self: self.kernel_f[:, 6:9])
+    material = property(lambda self: self.kernel_i[:, 0])
+
     def __len__(self):
         return len(self.mass)
+
+    def search_arrays(self):
+        """Arguments of `pdem.neighbors.build_box_candidates` after the particles."""
+        return self.center, self.half
 
     def add(self, center, half_extents, material, mass, *, blocked=None, fixed=False, load=None,
             direction=(0.0, 0.0, -1.0), velocity=(0.0, 0.0, 0.0), damping=0.0, name=""):
@@ -94,11 +106,9 @@ class Boxes:
         norm = float(np.sqrt(d @ d))
         if not norm > 0.0:
             raise InputError(f"{label}.direction = {d.tolist()}: must be a non-zero vector")
-        self.center = np.vstack([self.center, c[None]])
-        self.half = np.vstack([self.half, h[None]])
-        self.velocity = np.vstack([self.velocity, v[None]])
+        self.kernel_f = np.vstack([self.kernel_f, np.concatenate([c, h, v])[None]])
+        self.kernel_i = np.vstack([self.kernel_i, np.array([[material]], np.int64)])
         self.mass = np.append(self.mass, m)
-        self.material = np.append(self.material, np.int64(material))
         self.blocked = np.append(self.blocked, np.int64(mask))
         self.damping = np.append(self.damping, lam)
         self.direction = np.vstack([self.direction, (d / norm)[None]])

@@ -1,6 +1,8 @@
 """The `pdem` command line: ``python -m pdem run SCENE.toml --out DIR``.
 
-Bad input prints one line (the field, the value, what is allowed) and exits 2, and so does a
+`pdem run` reads the scene file, finds its scene in the registry (`pdem.scenes`; a file without
+a scene table is a plain scene, `pdem.driver.plain`) and runs it on this process's ranks. Bad
+input prints one line (the field, the value, what is allowed) and exits 2, and so does a
 checkpoint that cannot be resumed from (damaged, or written for another scene); a run stopped by
 an instability prints the cause and exits 4; a run stopped by SIGTERM/SIGUSR1 after writing a
 checkpoint exits 3 (`pdem.io.signals`).
@@ -9,6 +11,22 @@ import argparse
 import sys
 
 from .errors import EXIT_INPUT_ERROR, EXIT_INSTABILITY, InputError, InstabilityError
+
+
+def run_file(path, out, steps=None, fresh=False):
+    """Run the scene file ``path`` into ``out`` on this process's ranks; returns the exit status."""
+    from .config import load_toml
+    from .driver.plain import run_scene_file
+    from .parallel.comm import configure_threads, get_comm
+    from .scenes import find
+
+    comm = get_comm()
+    configure_threads(comm)
+    doc = load_toml(path)
+    name, scene = find(doc)
+    if scene is not None:
+        return scene.run(path, doc, out, comm, steps=steps, fresh=fresh)
+    return run_scene_file(path, doc, out, comm, steps=steps, fresh=fresh)
 
 
 def main(argv=None):
@@ -29,9 +47,7 @@ def main(argv=None):
         from .io.checkpoint import CheckpointError
 
         try:
-            from .run import run_scene_file
-
-            return run_scene_file(args.scene, out, steps=args.steps, fresh=args.fresh)
+            return run_file(args.scene, out, steps=args.steps, fresh=args.fresh)
         except InputError as exc:
             print(f"pdem: error: {exc}", file=sys.stderr)
             return EXIT_INPUT_ERROR

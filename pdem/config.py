@@ -1,14 +1,17 @@
 """Scene files (TOML) → `Scene`, with one-line errors naming the field.
 
-A scene file has the tables below; any key not listed is an error (so a typo never becomes a
-silent default). Units are SI.
+A plain scene file has the tables below (a scene of `pdem.scenes` adds its own table, e.g.
+``[box_test]``); any key not listed is an error (so a typo never becomes a silent default).
+Values are typed strictly: numbers are numbers (``true`` is not 1), booleans are booleans
+(``"false"`` is a string). Units are SI.
 
-    [simulation]   dt ("auto" or [s]), damping, gravity [m/s²], skin [m], dt_safety, dt_interval,
-                   pwave_factor, check_interval, max_overlap_ratio, energy_check,
-                   allow_initial_overlap, slab_axis ("x"|"y"|"z")
+    [simulation]   law ("linear"), dt ("auto" or [s]), damping, gravity [m/s²], skin [m],
+                   dt_safety, dt_interval, pwave_factor, check_interval, max_overlap_ratio,
+                   energy_check, allow_initial_overlap, slab_axis ("x"|"y"|"z")
     [run]          steps, progress_every, output_every, snapshot_every, checkpoint_every,
                    checkpoint_every_s, checkpoint_keep, kind
-    [materials.NAME] density [kg/m³], young [Pa], poisson [-], friction_angle [rad]
+    [materials.NAME] density [kg/m³] and the law's keys (linear: young [Pa], poisson [-],
+                   friction_angle [rad])
     [[walls]]      axis ("x"|"y"|"z"), position [m], material, sense (-1|0|1), velocity [m/s]
     [[facets]]     vertices [[m]×3], material, velocity [m/s]
     [[spheres]]    pos [[m]], radius [m] or [[m]], material, fixed, vel [m/s]
@@ -20,21 +23,22 @@ import tomllib
 from .errors import InputError
 from .generators import loose_cloud
 from .scene import Scene
+from .validate import number
 
-SIMULATION_KEYS = {"dt", "damping", "gravity", "skin", "dt_safety", "dt_interval", "pwave_factor", "check_interval",
-                   "max_overlap_ratio", "energy_check", "allow_initial_overlap", "slab_axis"}
+SIMULATION_KEYS = {"law", "dt", "damping", "gravity", "skin", "dt_safety", "dt_interval", "pwave_factor",
+                   "check_interval", "max_overlap_ratio", "energy_check", "allow_initial_overlap", "slab_axis"}
 RUN_DEFAULTS = {"steps": 1000, "progress_every": 1000, "output_every": 100, "snapshot_every": 0, "checkpoint_every": 0,
                 "checkpoint_every_s": 0.0, "checkpoint_keep": 3, "kind": "scene"}
-MATERIAL_KEYS = {"density", "young", "poisson", "friction_angle"}
 WALL_KEYS = {"axis", "position", "material", "sense", "velocity"}
 FACET_KEYS = {"vertices", "material", "velocity"}
 SPHERE_KEYS = {"pos", "radius", "material", "fixed", "vel"}
 DEPOSITION_KEYS = {"box_lo", "box_hi", "count", "radius", "radius_spread", "seed", "material", "walls_material"}
-TOP_KEYS = {"simulation", "run", "materials", "walls", "facets", "spheres", "deposition", "box_test"}
+TOP_KEYS = {"simulation", "run", "materials", "walls", "facets", "spheres", "deposition"}
 AXES = {"x": 0, "y": 1, "z": 2}
 
 
-def _check_keys(where, table, allowed, required=()):
+def check_keys(where, table, allowed, required=()):
+    """``table`` must be a table with keys from ``allowed`` and every key of ``required``."""
     if not isinstance(table, dict):
         raise InputError(f"{where}: must be a table, got {type(table).__name__}")
     for k in table:
@@ -45,51 +49,78 @@ def _check_keys(where, table, allowed, required=()):
             raise InputError(f"{where}.{k}: required key is missing")
 
 
+def _table_list(where, value):
+    if not isinstance(value, list) or not all(isinstance(t, dict) for t in value):
+        raise InputError(f"{where}: must be an array of tables ([[{where}]]), got {type(value).__name__}")
+    return value
+
+
 def load_toml(path):
+    """The parsed scene file; a missing, unreadable or malformed file is one InputError line."""
     try:
         with open(path, "rb") as fh:
             return tomllib.load(fh)
     except FileNotFoundError:
         raise InputError(f"{path}: scene file not found") from None
+    except IsADirectoryError:
+        raise InputError(f"{path}: is a directory, not a scene file") from None
+    except PermissionError:
+        raise InputError(f"{path}: cannot read the scene file (permission denied)") from None
+    except UnicodeDecodeError:
+        raise InputError(f"{path}: not a text file in UTF-8 (a TOML scene file is)") from None
     except tomllib.TOMLDecodeError as exc:
         raise InputError(f"{path}: not valid TOML ({exc})") from None
+    except OSError as exc:
+        raise InputError(f"{path}: cannot read the scene file ({exc.strerror or exc})") from None
 
 
 def run_settings(doc):
+    """The [run] table with defaults, checked."""
     run = dict(RUN_DEFAULTS)
-    _check_keys("run", doc.get("run", {}), set(RUN_DEFAULTS))
+    check_keys("run", doc.get("run", {}), set(RUN_DEFAULTS))
     run.update(doc.get("run", {}))
     for k in ("steps", "progress_every", "output_every", "snapshot_every", "checkpoint_every", "checkpoint_keep"):
-        if not isinstance(run[k], int) or run[k] < 0:
-            raise InputError(f"run.{k} = {run[k]!r}: must be an integer >= 0")
+        run[k] = number(f"run.{k}", run[k], 0, integer=True)
+    run["checkpoint_every_s"] = number("run.checkpoint_every_s", run["checkpoint_every_s"], 0.0,
+                                       allow="a number of seconds >= 0 (0: off)")
+    if not isinstance(run["kind"], str):
+        raise InputError(f"run.kind = {run['kind']!r}: must be a string")
     return run
 
 
-def scene_from_dict(doc):
-    """Build a Scene from a parsed scene file (dict)."""
-    _check_keys("scene file", doc, TOP_KEYS)
+def scene_from_dict(doc, scene_tables=()):
+    """Build a Scene from a parsed plain scene file (dict). ``scene_tables``: the tables of
+    registered scenes, only named in the error for an unknown table."""
+    check_keys("scene file", doc, TOP_KEYS | set(scene_tables))
     sim = dict(doc.get("simulation", {}))
-    _check_keys("simulation", sim, SIMULATION_KEYS)
+    check_keys("simulation", sim, SIMULATION_KEYS)
     if "slab_axis" in sim:
-        if sim["slab_axis"] not in AXES:
+        if not isinstance(sim["slab_axis"], str) or sim["slab_axis"] not in AXES:
             raise InputError(f"simulation.slab_axis = {sim['slab_axis']!r}: must be one of x, y, z")
         sim["slab_axis"] = AXES[sim["slab_axis"]]
+    if "law" in sim and not isinstance(sim["law"], str):
+        raise InputError(f"simulation.law = {sim['law']!r}: must be the name of a contact law")
+    if sim.get("dt", "auto") != "auto" and isinstance(sim["dt"], str):
+        raise InputError(f"simulation.dt = {sim['dt']!r}: must be 'auto' or a number > 0 [s]")
     scene = Scene(**sim)
     materials = doc.get("materials", {})
-    if not materials:
+    if not isinstance(materials, dict) or not materials:
         raise InputError("materials: the scene file defines no material ([materials.NAME] tables)")
     for name, m in materials.items():
-        _check_keys(f"materials.{name}", m, MATERIAL_KEYS, MATERIAL_KEYS)
+        if not isinstance(m, dict):
+            raise InputError(f"materials.{name}: must be a table, got {type(m).__name__}")
+        if "density" not in m:
+            raise InputError(f"materials.{name}.density: required key is missing")
         scene.material(name=name, **m)
-    for k, w in enumerate(doc.get("walls", [])):
-        _check_keys(f"walls[{k}]", w, WALL_KEYS, ("axis", "position", "material"))
+    for k, w in enumerate(_table_list("walls", doc.get("walls", []))):
+        check_keys(f"walls[{k}]", w, WALL_KEYS, ("axis", "position", "material"))
         scene.add_wall(w["axis"], w["position"], w["material"], sense=w.get("sense", 0),
                        velocity=w.get("velocity", (0.0, 0.0, 0.0)))
-    for k, f in enumerate(doc.get("facets", [])):
-        _check_keys(f"facets[{k}]", f, FACET_KEYS, ("vertices", "material"))
+    for k, f in enumerate(_table_list("facets", doc.get("facets", []))):
+        check_keys(f"facets[{k}]", f, FACET_KEYS, ("vertices", "material"))
         scene.add_facet(f["vertices"], f["material"], velocity=f.get("velocity", (0.0, 0.0, 0.0)))
-    for k, s in enumerate(doc.get("spheres", [])):
-        _check_keys(f"spheres[{k}]", s, SPHERE_KEYS, ("pos", "radius", "material"))
+    for k, s in enumerate(_table_list("spheres", doc.get("spheres", []))):
+        check_keys(f"spheres[{k}]", s, SPHERE_KEYS, ("pos", "radius", "material"))
         scene.add_spheres(s["pos"], s["radius"], s["material"], fixed=s.get("fixed", False), vel=s.get("vel"))
     if "deposition" in doc:
         add_deposition(scene, doc["deposition"])
@@ -98,23 +129,20 @@ def scene_from_dict(doc):
 
 def add_deposition(scene, d):
     """A loose seeded cloud in a box; with `walls_material`, the box's floor and four sides."""
-    _check_keys("deposition", d, DEPOSITION_KEYS, ("box_lo", "box_hi", "count", "radius", "material"))
-    count = d["count"]
-    if not isinstance(count, int) or count < 1:
-        raise InputError(f"deposition.count = {count!r}: must be an integer >= 1")
-    r = d["radius"]
-    if not isinstance(r, (int, float)) or not r > 0:
-        raise InputError(f"deposition.radius = {r!r}: must be a number > 0 [m]")
-    spread = d.get("radius_spread", 0.0)
-    if not isinstance(spread, (int, float)) or not 0 <= spread < 1:
-        raise InputError(f"deposition.radius_spread = {spread!r}: must be in [0, 1)")
+    check_keys("deposition", d, DEPOSITION_KEYS, ("box_lo", "box_hi", "count", "radius", "material"))
+    count = number("deposition.count", d["count"], 1, integer=True)
+    r = number("deposition.radius", d["radius"], 0.0, lo_open=True, allow="a number > 0 [m]")
+    spread = number("deposition.radius_spread", d.get("radius_spread", 0.0), 0.0, 1.0, hi_open=True, allow="in [0, 1)")
+    seed = number("deposition.seed", d.get("seed", 0), 0, integer=True)
     lo, hi = d["box_lo"], d["box_hi"]
     for name, v in (("box_lo", lo), ("box_hi", hi)):
-        if not (isinstance(v, list) and len(v) == 3 and all(isinstance(x, (int, float)) for x in v)):
+        if not (isinstance(v, list) and len(v) == 3):
             raise InputError(f"deposition.{name} = {v!r}: must be [x, y, z] in m")
+        for x in v:
+            number(f"deposition.{name}", x, allow="[x, y, z] numbers in m")
     if not all(h > l for l, h in zip(lo, hi)):
         raise InputError(f"deposition.box_hi = {hi!r}: must be above box_lo = {lo!r} on every axis")
-    pos, radius = loose_cloud(lo, hi, count, r, spread, d.get("seed", 0))
+    pos, radius = loose_cloud(lo, hi, count, r, spread, seed)
     scene.add_spheres(pos, radius, d["material"])
     wm = d.get("walls_material")
     if wm is not None:
@@ -127,6 +155,6 @@ def add_deposition(scene, d):
 
 
 def load_scene(path):
-    """(Scene, run settings, parsed document) from a scene file."""
+    """(Scene, run settings, parsed document) from a plain scene file."""
     doc = load_toml(path)
     return scene_from_dict(doc), run_settings(doc), doc

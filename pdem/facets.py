@@ -4,6 +4,10 @@ A facet is stored as one row of `FACET_COLUMNS` floats in Yade's local frame: th
 inscribed circle c [m], the unit normal n, the three in-plane edge normals ne_k, the inscribed
 radius icr [m], unit vectors vu_k from c to the vertices and their lengths vl_k [m]
 (YADE_MODEL.md §2). Facets translate with a prescribed velocity [m/s]; they do not rotate.
+
+Storage: the rows the contact loop reads (`pdem.contact.geometry.SphereFacet`): ``kernel_f``
+[n, FACET_COLUMNS + 3] = geometry row, velocity and ``kernel_i`` [n, 1] = material; ``geom``,
+``velocity`` and ``material`` are views of them. ``vertices`` [n, 3, 3] are the global vertices.
 """
 import numpy as np
 
@@ -43,22 +47,31 @@ def facet_row(v0, v1, v2):
 
 class Facets:
     def __init__(self):
-        self.geom = np.zeros((0, FACET_COLUMNS))
-        self.velocity = np.zeros((0, 3))
-        self.material = np.zeros(0, np.int64)
+        self.kernel_f = np.zeros((0, FACET_COLUMNS + 3))
+        self.kernel_i = np.zeros((0, 1), np.int64)
         self.vertices = np.zeros((0, 3, 3))
+        self.names = []
+
+    geom = property(lambda self: self.kernel_f[:, :FACET_COLUMNS])
+    velocity = property(lambda self: self.kernel_f[:, FACET_COLUMNS:])
+    material = property(lambda self: self.kernel_i[:, 0])
 
     def __len__(self):
-        return len(self.material)
+        return len(self.kernel_i)
 
-    def add(self, vertices, material, velocity=(0.0, 0.0, 0.0)):
+    def search_arrays(self):
+        """Arguments of `pdem.neighbors.build_facet_candidates` after the particles."""
+        return self.geom, self.vertices
+
+    def add(self, vertices, material, velocity=(0.0, 0.0, 0.0), name=""):
         v = np.asarray(vertices, np.float64)
         if v.shape != (3, 3) or not np.all(np.isfinite(v)):
             raise InputError(f"facets[{len(self)}].vertices: must be three finite points (x, y, z), got {vertices!r}")
-        self.geom = np.vstack([self.geom, facet_row(*v)])
+        row = np.concatenate([facet_row(*v), np.asarray(velocity, float).reshape(3)])
+        self.kernel_f = np.vstack([self.kernel_f, row[None]])
+        self.kernel_i = np.vstack([self.kernel_i, np.array([[material]], np.int64)])
         self.vertices = np.concatenate([self.vertices, v[None]])
-        self.velocity = np.vstack([self.velocity, np.asarray(velocity, float).reshape(1, 3)])
-        self.material = np.append(self.material, material)
+        self.names.append(name or str(len(self.names)))
         return len(self) - 1
 
     def move(self, dt):

@@ -5,7 +5,7 @@ increasing gid, then walls by index, then facets by index. The order depends onl
 and indices, never on rows, threads or ranks, so any decomposition gives the same bits.
 Also: order-independent totals on walls (exact sums, `pdem.exactsum`).
 """
-from numba import njit, prange
+from numba import prange
 
 from .kernels import kernel
 

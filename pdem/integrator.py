@@ -9,8 +9,7 @@ undamped one. Units: SI (m, s, kg, N).
 from numba import njit, prange
 
 from .kernels import kernel
-
-DOF_ALL = 63
+from .state import DOF_ALL
 
 
 @njit(inline="always", cache=True)

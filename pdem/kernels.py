@@ -1,11 +1,25 @@
-"""`@kernel`: one Python source compiled twice by numba, serial and `parallel=True`.
+"""`@kernel`: one Python source compiled twice by numba, serial and `parallel=True`; and
+`specialize`: one template compiled per combination of the inline functions it calls.
 
 A parallel region costs ~0.1–0.3 ms to launch, more than a whole step of a small scene, so a call
 runs the serial twin when the work (the argument at `size_arg`) is below `PARALLEL_MIN` or numba
 has one thread. Both twins execute the same race-free loops and give the same bits. The serial
 twin gets its own qualified name so the two never share a numba cache entry.
+
+`specialize(template, name, bindings, sources)` is how the contact loops are generated from a
+(geometry, law) pair (`pdem.contact.loops`): a copy of ``template`` whose global names in
+``bindings`` (upper-case placeholders such as ``GEOM_CONTACT``, ``LAW_FORCE``) are bound to the
+chosen njit functions and constants. numba inlines them and prunes branches on the constants, so
+the generated kernel is the hand-written loop of that pair. A closure would do the same but
+numba caches closures over dispatchers under a key that changes every session (numba issue
+6264); a copy with its own globals and a unique qualified name is cached like any function. The
+qualified name carries a hash of the ``sources`` (the modules the bound functions come from):
+numba checks only the template's file for staleness, so without the hash an edit to a law would
+silently run the old compiled loop.
 """
+import hashlib
 import types
+from pathlib import Path
 
 import numba
 from numba import njit
@@ -27,15 +41,46 @@ class Kernel:
         return self.serial(*args)
 
 
+def _copy(f, qualname, namespace=None):
+    """A new function object with ``f``'s code, named ``qualname``, globals ``namespace``."""
+    g = types.FunctionType(f.__code__, f.__globals__ if namespace is None else namespace,
+                           qualname.rsplit(".", 1)[-1], f.__defaults__, f.__closure__)
+    g.__qualname__ = qualname
+    g.__module__ = f.__module__
+    g.__doc__ = f.__doc__
+    return g
+
+
+def _twins(f, size_arg):
+    serial = _copy(f, f.__qualname__ + "_serial", f.__globals__)
+    return Kernel(njit(parallel=True, cache=True)(f), njit(cache=True)(serial), size_arg)
+
+
 def kernel(size_arg=0):
     """Decorator: compile `f` as a serial and a parallel twin; the call picks one by work size."""
 
     def wrap(f):
-        par = njit(parallel=True, cache=True)(f)
-        g = types.FunctionType(f.__code__, f.__globals__, f.__name__ + "_serial", f.__defaults__, f.__closure__)
-        g.__qualname__ = f.__qualname__ + "_serial"
-        g.__module__ = f.__module__
-        g.__doc__ = f.__doc__
-        return Kernel(par, njit(cache=True)(g), size_arg)
+        return _twins(f, size_arg)
 
     return wrap
+
+
+def source_hash(*modules):
+    """8 hex digits of the source text of the given modules (their files)."""
+    h = hashlib.sha256()
+    for m in modules:
+        h.update(Path(m.__file__).read_bytes())
+    return h.hexdigest()[:8]
+
+
+def specialize(template, name, bindings, sources=(), size_arg=0):
+    """The `Kernel` (serial and parallel twins) of ``template`` with the global names of
+    ``bindings`` bound to the given values; cached by numba under ``<template>__<name>_<hash>``
+    where the hash covers the template's module and ``sources``."""
+    import sys
+
+    namespace = dict(template.__globals__)
+    namespace.update(bindings)
+    tag = source_hash(sys.modules[template.__module__], *sources)
+    f = _copy(template, f"{template.__qualname__}__{name}_{tag}", namespace)
+    return _twins(f, size_arg)

@@ -1,52 +1,78 @@
 """Materials and their table of per-material arrays.
 
-A material is the data of Yade's ``FrictMat``: density ρ [kg/m³], Young's modulus E [Pa],
-"Poisson ratio" ν [-] (in this model only the ratio k_s/k_n, YADE_MODEL.md §4), and friction
-angle φ [rad]. Per-contact parameters are computed from the two materials once, when a contact is
-created (Yade's Ip2), by the contact law module.
+A material is a density ρ [kg/m³] plus the properties the scene's contact law asks for
+(``law.MATERIAL_KEYS``; for the linear law Yade's ``FrictMat``: Young's modulus E [Pa],
+"Poisson ratio" ν [-] (only the ratio k_s/k_n, YADE_MODEL.md §4) and friction angle φ [rad]).
+Per-contact parameters are computed from the two materials once, when a contact is created
+(Yade's Ip2), by the law from the table `MaterialTable.props` (one row per material, one column
+per law key, in the law's order).
 """
 from dataclasses import dataclass
 
 import numpy as np
 
 from .errors import InputError
+from .validate import number
 
 
 @dataclass(frozen=True)
 class Material:
     density: float
-    young: float
-    poisson: float
-    friction_angle: float
+    properties: tuple  # ((key, value), ...) in the law's MATERIAL_KEYS order
     name: str = ""
 
-    def __post_init__(self):
-        label = self.name or "material"
-        for field, lo, allow in (("density", 0.0, "> 0"), ("young", 0.0, "> 0")):
-            v = getattr(self, field)
-            if not (np.isfinite(v) and v > lo):
-                raise InputError(f"{label}.{field} = {v!r}: must be a finite number {allow}")
-        if not (np.isfinite(self.poisson) and self.poisson >= 0.0):
-            raise InputError(f"{label}.poisson = {self.poisson!r}: must be a finite number >= 0 (it is k_s/k_n)")
-        if not (np.isfinite(self.friction_angle) and 0.0 <= self.friction_angle < np.pi / 2):
-            raise InputError(f"{label}.friction_angle = {self.friction_angle!r}: must be in [0, pi/2) rad")
+    def __getattr__(self, key):
+        for k, v in self.__dict__.get("properties", ()):
+            if k == key:
+                return v
+        raise AttributeError(key)
 
 
 class MaterialTable:
     """Materials by index, with contiguous arrays for the kernels."""
 
-    def __init__(self):
+    def __init__(self, law):
+        self.law = law
         self.materials = []
+        self.names = []
 
-    def add(self, material):
-        self.materials.append(material)
+    def add(self, name, density, values):
+        """Validate and append a material; returns its index. ``values``: the law's keys."""
+        label = f"materials.{name}" if name else f"materials[{len(self.materials)}]"
+        keys = self.law.MATERIAL_KEYS
+        for k in values:
+            if k not in keys:
+                raise InputError(f"{label}.{k}: unknown key for the {self.law.NAME} law; allowed: density, "
+                                 f"{', '.join(keys)}")
+        for k in keys:
+            if k not in values:
+                raise InputError(f"{label}.{k}: required key is missing (the {self.law.NAME} law needs it)")
+        rho = number(f"{label}.density", density, 0.0, lo_open=True, allow="a finite number > 0 [kg/m³]")
+        props = []
+        for k, (allow, test) in keys.items():
+            v = number(f"{label}.{k}", values[k], allow=allow)
+            if not test(v):
+                raise InputError(f"{label}.{k} = {values[k]!r}: must be {allow}")
+            props.append((k, v))
+        self.materials.append(Material(rho, tuple(props), label))
+        self.names.append(name or str(len(self.names)))
         return len(self.materials) - 1
 
     def __len__(self):
         return len(self.materials)
 
-    def arrays(self):
-        """(young, poisson, friction_angle, density) as float64 arrays indexed by material."""
-        m = self.materials
-        return (np.array([x.young for x in m], np.float64), np.array([x.poisson for x in m], np.float64),
-                np.array([x.friction_angle for x in m], np.float64), np.array([x.density for x in m], np.float64))
+    def props(self):
+        """float64 [n_materials, n_keys]: the law properties, one column per law key."""
+        return np.array([[v for _, v in m.properties] for m in self.materials], np.float64).reshape(
+            len(self.materials), len(self.law.MATERIAL_KEYS))
+
+    def density(self):
+        return np.array([m.density for m in self.materials], np.float64)
+
+    def column(self, key):
+        """float64 [n_materials]: one law property of every material."""
+        return self.props()[:, list(self.law.MATERIAL_KEYS).index(key)]
+
+    def spec(self):
+        """JSON-able list of the materials (name, density, the law's keys)."""
+        return [dict(name=n, density=m.density, **dict(m.properties)) for n, m in zip(self.names, self.materials)]

@@ -21,39 +21,20 @@ from math import pi
 import numpy as np
 
 from .boxes import Boxes
+from .contact import get_law
 from .domain import SerialDomain
 from .errors import InputError
 from .facets import Facets
-from .materials import Material, MaterialTable
+from .materials import MaterialTable
 from .simulation import Simulation
-from .state import DOF_ALL, Particles
+from .state import DOF_ALL, FIELDS, Particles
+from .validate import boolean, number, vectors
 from .walls import Walls
 
 
-def _number(label, value, lo=None, hi=None, lo_open=False, allow=""):
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise InputError(f"{label} = {value!r}: must be a number{(' ' + allow) if allow else ''}") from None
-    bad = not np.isfinite(v) or (lo is not None and (v <= lo if lo_open else v < lo)) or (hi is not None and v > hi)
-    if bad:
-        raise InputError(f"{label} = {value!r}: must be {allow or 'a finite number'}")
-    return v
-
-
-def _vectors(label, value, n=None):
-    a = np.asarray(value, dtype=np.float64)
-    if a.ndim == 1 and a.shape[0] == 3 and (n is None or n == 1):
-        a = a[None]
-    if a.ndim != 2 or a.shape[1] != 3 or (n is not None and a.shape[0] != n):
-        raise InputError(f"{label}: must be a list of {n if n is not None else 'N'} (x, y, z) triples, got shape {a.shape}")
-    if not np.all(np.isfinite(a)):
-        raise InputError(f"{label}: contains a value that is not finite")
-    return a
-
-
 def sphere_columns(pos, radius, density, first_gid):
-    """gid, pos, radius, mass, inertia of spheres at rest (vel, angvel zero) [SI]."""
+    """gid, pos, radius, mass, inertia of spheres at rest (vel, angvel zero) [SI], with Yade's
+    mass V·ρ and inertia (2/5)·V·r²·ρ."""
     # element by element with Python floats, as Yade's utils.sphere does: numpy's power can
     # differ from Python's r**3 in the last bit
     volume = np.array([(4.0 / 3) * pi * float(x) ** 3 for x in radius])
@@ -69,38 +50,42 @@ class Scene:
 
     def __init__(self, *, dt="auto", damping=0.0, gravity=(0.0, 0.0, 0.0), skin=None, dt_safety=0.8, dt_interval=100,
                  pwave_factor=0.5, check_interval=100, max_overlap_ratio=0.5, energy_check=True,
-                 allow_initial_overlap=False, slab_axis=0):
+                 allow_initial_overlap=False, slab_axis=0, law="linear"):
+        self.law = get_law(law)
+        if dt is not None and dt != "auto":
+            dt = number("dt", dt, 0.0, lo_open=True, allow="'auto' or a number > 0 [s]")
         self.settings = {
-            "dt": dt if dt == "auto" or dt is None else _number("dt", dt, 0.0, lo_open=True, allow="'auto' or a number > 0 [s]"),
-            "damping": _number("damping", damping, 0.0, 0.99, allow="in [0, 0.99] (Cundall's lambda_D)"),
-            "gravity": _vectors("gravity", gravity, 1)[0].tolist(),
-            "skin": None if skin is None else _number("skin", skin, 0.0, lo_open=True, allow="a length > 0 [m]"),
-            "dt_safety": _number("dt_safety", dt_safety, 0.0, 1.0, lo_open=True, allow="in (0, 1]"),
-            "dt_interval": int(_number("dt_interval", dt_interval, 1, allow="an integer >= 1 [steps]")),
-            "pwave_factor": _number("pwave_factor", pwave_factor, 0.0, 1.0, lo_open=True, allow="in (0, 1]"),
-            "check_interval": int(_number("check_interval", check_interval, 1, allow="an integer >= 1 [steps]")),
-            "max_overlap_ratio": _number("max_overlap_ratio", max_overlap_ratio, 0.0, 1.0, lo_open=True, allow="in (0, 1]"),
-            "energy_check": bool(energy_check),
-            "allow_initial_overlap": bool(allow_initial_overlap),
+            "dt": dt,
+            "damping": number("damping", damping, 0.0, 0.99, allow="in [0, 0.99] (Cundall's lambda_D)"),
+            "gravity": vectors("gravity", gravity, 1)[0].tolist(),
+            "skin": None if skin is None else number("skin", skin, 0.0, lo_open=True, allow="a length > 0 [m]"),
+            "dt_safety": number("dt_safety", dt_safety, 0.0, 1.0, lo_open=True, allow="in (0, 1]"),
+            "dt_interval": number("dt_interval", dt_interval, 1, integer=True, allow="an integer >= 1 [steps]"),
+            "pwave_factor": number("pwave_factor", pwave_factor, 0.0, 1.0, lo_open=True, allow="in (0, 1]"),
+            "check_interval": number("check_interval", check_interval, 1, integer=True, allow="an integer >= 1 [steps]"),
+            "max_overlap_ratio": number("max_overlap_ratio", max_overlap_ratio, 0.0, 1.0, lo_open=True, allow="in (0, 1]"),
+            "energy_check": boolean("energy_check", energy_check),
+            "allow_initial_overlap": boolean("allow_initial_overlap", allow_initial_overlap),
             "slab_axis": slab_axis,
+            "law": self.law.NAME,
         }
-        if slab_axis not in (0, 1, 2):
+        if slab_axis not in (0, 1, 2) or isinstance(slab_axis, bool):
             raise InputError(f"slab_axis = {slab_axis!r}: must be 0, 1 or 2 (x, y, z)")
-        self.materials = MaterialTable()
-        self.material_names = []
+        self.materials = MaterialTable(self.law)
         self.walls = Walls()
         self.facets = Facets()
         self.boxes = Boxes()
         self._spheres = []
 
+    @property
+    def material_names(self):
+        return self.materials.names
+
     # ------------------------------------------------------------------ declarations
-    def material(self, *, density, young, poisson, friction_angle, name=""):
-        """Add a material; returns its index. Units: kg/m³, Pa, -, rad."""
-        label = f"materials.{name}" if name else f"materials[{len(self.materials)}]"
-        m = Material(_number(f"{label}.density", density), _number(f"{label}.young", young),
-                     _number(f"{label}.poisson", poisson), _number(f"{label}.friction_angle", friction_angle), label)
-        self.material_names.append(name or str(len(self.materials)))
-        return self.materials.add(m)
+    def material(self, *, density, name="", **properties):
+        """Add a material; returns its index. ``density`` [kg/m³] and the keys of the scene's law
+        (linear: ``young`` [Pa], ``poisson`` [-], ``friction_angle`` [rad])."""
+        return self.materials.add(name, density, properties)
 
     def _material_index(self, label, m):
         if isinstance(m, str):
@@ -111,32 +96,52 @@ class Scene:
             raise InputError(f"{label} = {m!r}: not a material index (0..{len(self.materials) - 1})")
         return int(m)
 
-    def add_spheres(self, pos, radius, material, *, fixed=False, vel=None, angvel=None, blocked=None, first_gid=None):
+    def add_spheres(self, pos, radius, material, *, fixed=False, vel=None, angvel=None, blocked=None, first_gid=None,
+                    gid=None, mass=None, inertia=None):
         """Add spheres; returns their global ids. pos [m], radius [m], vel [m/s], angvel [rad/s].
 
         `fixed` blocks every DOF (the body still moves with `vel`); `blocked` is a per-body string
         of blocked DOFs from "xyzXYZ" (lowercase translations, uppercase rotations). Global ids
-        count up from `first_gid` (default: one past the largest so far)."""
-        pos = _vectors("spheres.pos", pos)
+        count up from `first_gid` (default: one past the largest so far), or are given per
+        sphere in `gid`. `mass` [kg] and `inertia` [kg·m²] replace Yade's V·ρ and (2/5)V·r²·ρ
+        (e.g. to match another code's values to the last bit)."""
+        pos = vectors("spheres.pos", pos)
         n = len(pos)
-        r = np.broadcast_to(np.asarray(radius, np.float64), (n,)).copy()
+        r = _per_body("spheres.radius", radius, n)
         if not np.all(np.isfinite(r) & (r > 0)):
             k = int(np.flatnonzero(~(np.isfinite(r) & (r > 0)))[0])
             raise InputError(f"spheres.radius[{k}] = {r[k]!r}: must be a finite number > 0 [m]")
-        mats = np.broadcast_to(np.asarray(material, dtype=object), (n,))
+        mats = _broadcast("spheres.material", material, n)
         mat = np.array([self._material_index(f"spheres.material[{k}]", m) for k, m in enumerate(mats)], np.int64)
-        fixed = np.broadcast_to(np.asarray(fixed, bool), (n,))
-        mask = np.where(fixed, DOF_ALL, 0).astype(np.int64)
+        fixed = _broadcast("spheres.fixed", fixed, n)
+        for k, f in enumerate(fixed):
+            boolean(f"spheres.fixed[{k}]", f)
+        mask = np.where(fixed.astype(bool), DOF_ALL, 0).astype(np.int64)
         if blocked is not None:
-            for k, b in enumerate(np.broadcast_to(np.asarray(blocked, dtype=object), (n,))):
+            for k, b in enumerate(_broadcast("spheres.blocked", blocked, n)):
                 if not isinstance(b, str) or set(b) - set("xyzXYZ"):
                     raise InputError(f"spheres.blocked[{k}] = {b!r}: must be a string of letters from 'xyzXYZ'")
                 for c in b:
                     mask[k] |= 1 << "xyzXYZ".index(c)
-        vel = np.zeros((n, 3)) if vel is None else _vectors("spheres.vel", np.broadcast_to(vel, (n, 3)), n)
-        angvel = np.zeros((n, 3)) if angvel is None else _vectors("spheres.angvel", np.broadcast_to(angvel, (n, 3)), n)
-        rho = np.array([self.materials.materials[m].density for m in mat])
-        cols = sphere_columns(pos, r, rho, self.next_gid() if first_gid is None else int(first_gid))
+        vel = np.zeros((n, 3)) if vel is None else vectors("spheres.vel", _rows3(vel, n), n)
+        angvel = np.zeros((n, 3)) if angvel is None else vectors("spheres.angvel", _rows3(angvel, n), n)
+        rho = self.materials.density()[mat]
+        if gid is not None:
+            gids = np.asarray(gid)
+            if gids.shape != (n,) or gids.dtype.kind not in "iu" or (n and gids.min() < 0) or len(np.unique(gids)) != n:
+                raise InputError(f"spheres.gid: must be {n} distinct integers >= 0, got {_short(gid)}")
+            first = 0
+        else:
+            first = self.next_gid() if first_gid is None else number("spheres.first_gid", first_gid, 0, integer=True)
+        cols = sphere_columns(pos, r, rho, first)
+        if gid is not None:
+            cols["gid"] = gids.astype(np.int64)
+        for key, value in (("mass", mass), ("inertia", inertia)):
+            if value is not None:
+                v = _per_body(f"spheres.{key}", value, n)
+                if not np.all(np.isfinite(v) & (v > 0)):
+                    raise InputError(f"spheres.{key}: every value must be a finite number > 0")
+                cols[key] = v
         cols.update(vel=vel, angvel=angvel, material=mat, blocked=mask)
         self.add_sphere_columns(cols)
         return cols["gid"]
@@ -148,25 +153,32 @@ class Scene:
     def add_sphere_columns(self, cols):
         """Add bodies given as FIELDS columns (e.g. a checkpoint's ``particles`` table), keeping
         their global ids and state; used between the stages of a multi-stage scene."""
-        from .state import FIELDS
-
-        n = len(cols["gid"])
-        if n and self._spheres and int(np.min(cols["gid"])) < self.next_gid():
-            raise InputError(f"spheres.gid: ids from {int(np.min(cols['gid']))} are already taken")
+        gids = np.asarray(cols["gid"])
+        taken = np.concatenate([s["gid"] for s in self._spheres]) if self._spheres else np.zeros(0, np.int64)
+        clash = np.intersect1d(gids, taken)
+        if len(clash):
+            raise InputError(f"spheres.gid: id {int(clash[0])} is already taken")
         self._spheres.append({k: np.asarray(cols[k]).copy() for k in FIELDS})
-        return np.asarray(cols["gid"])
+        return gids
 
     def add_wall(self, axis, position, material, *, sense=0, velocity=(0.0, 0.0, 0.0), name=""):
         """Add an infinite axis-aligned plane x[axis] = position [m] (Yade's utils.wall)."""
         label = f"walls.{name}" if name else f"walls[{len(self.walls)}]"
         m = self._material_index(f"{label}.material", material)
-        return self.walls.add(axis, _number(f"{label}.position", position), m, sense,
-                              _vectors(f"{label}.velocity", velocity, 1)[0], label)
+        return self.walls.add(axis, number(f"{label}.position", position), m, sense,
+                              vectors(f"{label}.velocity", velocity, 1)[0], name)
 
-    def add_facet(self, vertices, material, *, velocity=(0.0, 0.0, 0.0)):
-        """Add a triangle (three vertices [m]), optionally translating with `velocity` [m/s]."""
-        m = self._material_index(f"facets[{len(self.facets)}].material", material)
-        return self.facets.add(vertices, m, _vectors(f"facets[{len(self.facets)}].velocity", velocity, 1)[0])
+    def add_facet(self, vertices=None, material=0, *, center=None, local=None, velocity=(0.0, 0.0, 0.0), name=""):
+        """Add a triangle from three global `vertices` [m], or from a `center` [m] and three
+        vertices `local` to it; optionally translating with `velocity` [m/s]. `name` finds it
+        again (`Simulation.facet_index`)."""
+        label = f"facets.{name}" if name else f"facets[{len(self.facets)}]"
+        m = self._material_index(f"{label}.material", material)
+        if (vertices is None) == (center is None or local is None):
+            raise InputError(f"{label}: give either vertices or center and local")
+        if vertices is None:
+            vertices = vectors(f"{label}.center", center, 1) + vectors(f"{label}.local", local, 3)
+        return self.facets.add(vertices, m, vectors(f"{label}.velocity", velocity, 1)[0], name=name)
 
     def add_box(self, center, half_extents, material, mass, *, blocked=None, fixed=False, load=None,
                 direction=(0.0, 0.0, -1.0), velocity=(0.0, 0.0, 0.0), damping=0.0, name=""):
@@ -188,15 +200,14 @@ class Scene:
         """All declared spheres as one dict of columns (see `pdem.state.FIELDS`)."""
         if not self._spheres:
             raise InputError("spheres: the scene has no spheres")
-        return {k: np.concatenate([s[k] for s in self._spheres]) for k in self._spheres[0]}
+        return {k: np.concatenate([s[k] for s in self._spheres]) for k in FIELDS}
 
     def spec(self):
         """JSON-able description of the scene (settings, materials, walls, facets, boxes if any; not
         the spheres)."""
         out = {
             "settings": self.settings,
-            "materials": [dict(name=n, density=m.density, young=m.young, poisson=m.poisson, friction_angle=m.friction_angle)
-                          for n, m in zip(self.material_names, self.materials.materials)],
+            "materials": self.materials.spec(),
             "walls": [dict(axis=int(a), position=float(p), sense=int(s), velocity=v.tolist(), material=int(m))
                       for a, p, s, v, m in zip(self.walls.axis, self.walls.position, self.walls.sense,
                                                self.walls.velocity, self.walls.material)],
@@ -242,10 +253,42 @@ class Scene:
 
                 domain = SlabDomain(comm, axis=s["slab_axis"])
         particles = Particles(len(cols["gid"]) if domain.comm.size == 1 else 16)
-        domain.distribute(particles, cols) if hasattr(domain, "distribute") else particles.append_local(cols)
-        return Simulation(particles=particles, materials=self.materials, walls=self.walls, facets=self.facets,
-                          gravity=s["gravity"], damping=s["damping"], dt=None if s["dt"] in ("auto", None) else s["dt"],
-                          dt_safety=s["dt_safety"], dt_interval=s["dt_interval"], pwave_factor=s["pwave_factor"],
-                          skin=skin, check_interval=s["check_interval"], max_overlap_ratio=s["max_overlap_ratio"],
-                          energy_check=s["energy_check"], domain=domain, spec=json.loads(json.dumps(self.spec())),
-                          boxes=copy.deepcopy(self.boxes))
+        domain.distribute(particles, cols)
+        return Simulation(particles=particles, law=self.law, materials=self.materials, walls=self.walls,
+                          facets=self.facets, boxes=copy.deepcopy(self.boxes), gravity=s["gravity"], damping=s["damping"],
+                          dt=None if s["dt"] in ("auto", None) else s["dt"], dt_safety=s["dt_safety"],
+                          dt_interval=s["dt_interval"], pwave_factor=s["pwave_factor"], skin=skin,
+                          check_interval=s["check_interval"], max_overlap_ratio=s["max_overlap_ratio"],
+                          energy_check=s["energy_check"], domain=domain, spec=json.loads(json.dumps(self.spec())))
+
+
+def _broadcast(label, value, n):
+    """An object array [n] from one value or a list of n values."""
+    items = list(value) if isinstance(value, (list, tuple, np.ndarray)) else [value]
+    if len(items) not in (1, n):
+        raise InputError(f"{label}: one value or one per sphere ({n}), got {len(items)}")
+    out = np.empty(n, dtype=object)
+    for k in range(n):
+        out[k] = items[0] if len(items) == 1 else items[k]
+    return out
+
+
+def _per_body(label, value, n):
+    """float64 [n] from one number or n numbers."""
+    try:
+        if isinstance(value, (str, bool)):
+            raise ValueError
+        a = np.asarray(value, dtype=np.float64)
+        return np.broadcast_to(a, (n,)).copy()
+    except (TypeError, ValueError):
+        raise InputError(f"{label} = {_short(value)}: must be one number or {n} numbers") from None
+
+
+def _rows3(value, n):
+    a = np.asarray(value, dtype=object)
+    return np.broadcast_to(value, (n, 3)) if a.shape == (3,) else value
+
+
+def _short(value, limit=60):
+    text = repr(value)
+    return text if len(text) <= limit else text[: limit - 3] + "..."

@@ -1,23 +1,26 @@
 """Stable time step from the stiffnesses actually present.
 
 - Before contacts exist: the P-wave estimate Δt_p = min_i r_i / sqrt(E_i/ρ_i) (Yade's
-  PWaveTimeStep, ρ from the body's mass and volume, fixed spheres included).
+  PWaveTimeStep, ρ from the body's mass and volume, fixed spheres included; E is the law's
+  ``PWAVE_KEY`` material property).
 - Afterwards: a global-stiffness estimate (Yade's GlobalStiffnessTimeStepper). Each body sums
   the stiffness of its real contacts, K_t,a = Σ [k_s + (k_n − k_s) n_a²] and
   K_r,a = Σ k_s (1 − n_a²) ℓ² (ℓ the contact radius), and Δt_k = sqrt(min(m/max_a K_t,a,
   min_a I/K_r,a)). For one degree of freedom the critical step is 2·sqrt(m/k); the sum over a
   body's contacts bounds the coupled system (Gershgorin: ω_max² ≤ 2 K/m), so Δt_k is safe with
-  a margin of √2 and a safety factor s ≤ 1 on top (default 0.8, Yade's default).
-Walls, facets, boxes and stiff materials (steel at 10 E) are all in the sums. The simulation
-never lets Δt exceed Δt_p itself (`Simulation.update_dt`): in a loose cloud the few contacts
-present allow a long step that the many contacts formed before the next estimate do not.
+  a margin of √2 and a safety factor s ≤ 1 on top (default 0.8, Yade's default). (k_n, k_s) of
+  each contact come from the law (`law.stiffness`), the normal from the contact's history.
+Walls, facets, boxes and stiff materials (steel at 10 E) are all in the sums (every contact
+kind of `Simulation.kinds`, in the order forces are summed). The simulation never lets Δt
+exceed Δt_p itself (`update_dt`): in a loose cloud the few contacts present allow a long step
+that the many contacts formed before the next estimate do not.
 """
 from math import pi, sqrt
 
 import numpy as np
 from numba import njit
 
-DOF_ALL = 63
+from .state import DOF_ALL
 
 
 @njit(cache=True)
@@ -30,48 +33,44 @@ def pwave_dt(n_local, radius, mass, material, young):
     return dt
 
 
-@njit(inline="always", cache=True)
-def _add(kt, kr, kn, ks, nx, ny, nz, lever):
-    n2 = (nx * nx, ny * ny, nz * nz)
-    for a in range(3):
-        kt[a] += ks + (kn - ks) * n2[a]
-    kr[0] += ks * (n2[1] + n2[2]) * lever * lever
-    kr[1] += ks * (n2[0] + n2[2]) * lever * lever
-    kr[2] += ks * (n2[0] + n2[1]) * lever * lever
-
-
 @njit(cache=True)
-def stiffness_dt(n_local, mass, inertia, blocked, radius, inc_ptr, inc_pair, inc_first, pi_, pj, ss_state, ss_params,
-                 ss_hist, w_ptr, w_state, w_params, w_hist, f_ptr, f_state, f_params, f_hist, b_ptr, b_state, b_params,
-                 b_hist):
-    """sqrt(min over free bodies of m/K) from current contacts; inf when no body has contacts."""
-    best = np.inf
-    kt = np.zeros(3)
-    kr = np.zeros(3)
+def add_stiffness(n_local, blocked, radius, ptr, rows, state, kn, ks, history, ncol, kt, kr):
+    """kt[b, a] += Σ k_s + (k_n − k_s) n_a², kr[b, a] += Σ k_s (1 − n_a²) r² over the real
+    contacts of each free owned body b (rows[ptr[b]:ptr[b+1]] of one contact kind)."""
     for b in range(n_local):
         if blocked[b] == DOF_ALL:
             continue
-        kt[:] = 0.0
-        kr[:] = 0.0
-        for k in range(inc_ptr[b], inc_ptr[b + 1]):
-            p = inc_pair[k]
-            if ss_state[p] == 1:
-                _add(kt, kr, ss_params[p, 0], ss_params[p, 1], ss_hist[p, 3], ss_hist[p, 4], ss_hist[p, 5], radius[b])
-        for p in range(w_ptr[b], w_ptr[b + 1]):
-            if w_state[p] == 1:
-                _add(kt, kr, w_params[p, 0], w_params[p, 1], w_hist[p, 3], w_hist[p, 4], w_hist[p, 5], radius[b])
-        for p in range(f_ptr[b], f_ptr[b + 1]):
-            if f_state[p] == 1:
-                _add(kt, kr, f_params[p, 0], f_params[p, 1], f_hist[p, 3], f_hist[p, 4], f_hist[p, 5], radius[b])
-        for p in range(b_ptr[b], b_ptr[b + 1]):
-            if b_state[p] == 1:
-                _add(kt, kr, b_params[p, 0], b_params[p, 1], b_hist[p, 3], b_hist[p, 4], b_hist[p, 5], radius[b])
-        ktm = max(kt[0], max(kt[1], kt[2]))
+        lever = radius[b]
+        for k in range(ptr[b], ptr[b + 1]):
+            p = rows[k]
+            if state[p] != 1:
+                continue
+            n0 = history[p, ncol] * history[p, ncol]
+            n1 = history[p, ncol + 1] * history[p, ncol + 1]
+            n2 = history[p, ncol + 2] * history[p, ncol + 2]
+            kn_p = kn[p]
+            ks_p = ks[p]
+            kt[b, 0] += ks_p + (kn_p - ks_p) * n0
+            kt[b, 1] += ks_p + (kn_p - ks_p) * n1
+            kt[b, 2] += ks_p + (kn_p - ks_p) * n2
+            kr[b, 0] += ks_p * (n1 + n2) * lever * lever
+            kr[b, 1] += ks_p * (n0 + n2) * lever * lever
+            kr[b, 2] += ks_p * (n0 + n1) * lever * lever
+
+
+@njit(cache=True)
+def stiffness_dt(n_local, mass, inertia, blocked, kt, kr):
+    """sqrt(min over free bodies of m/max_a K_t,a and I/K_r,a); inf when no body has contacts."""
+    best = np.inf
+    for b in range(n_local):
+        if blocked[b] == DOF_ALL:
+            continue
+        ktm = max(kt[b, 0], max(kt[b, 1], kt[b, 2]))
         if ktm > 0.0:
             best = min(best, mass[b] / ktm)
         for a in range(3):
-            if kr[a] > 0.0:
-                best = min(best, inertia[b] / kr[a])
+            if kr[b, a] > 0.0:
+                best = min(best, inertia[b] / kr[b, a])
     return sqrt(best)
 
 
@@ -85,3 +84,38 @@ def box_dt(mass, blocked, stiffness):
             continue
         best = min(best, mass[b] / stiffness[b])
     return sqrt(best)
+
+
+def contact_dt(sim):
+    """Δt_k of this rank's owned bodies from the real contacts of every kind [s]."""
+    p = sim.particles
+    nl = p.n_local
+    kt = np.zeros((nl, 3))
+    kr = np.zeros((nl, 3))
+    for kind in sim.kinds:
+        c = kind.contacts
+        kn, ks = sim.law.stiffness(c.params[: c.n], c.history[: c.n], c.overlap[: c.n])
+        add_stiffness(nl, p.blocked, p.radius, kind.ptr, kind.rows, c.state, kn, ks, c.history, kind.normal_column,
+                      kt, kr)
+    return stiffness_dt(nl, p.mass, p.inertia, p.blocked, kt, kr)
+
+
+def update_dt(sim, force=False):
+    """Set ``sim.dt``: the fixed Δt, or (every ``dt_interval`` steps, or with ``force``) the
+    smaller of safety·Δt_k and Δt_p over all ranks; the P-wave fraction before any contact."""
+    if sim.fixed_dt is not None:
+        sim.dt = sim.fixed_dt
+        return
+    if not force and sim.step % sim.dt_interval:
+        return
+    p = sim.particles
+    k_dt = contact_dt(sim)
+    boxes = sim.kind("sphere_box")
+    if boxes is not None:  # the box's own mass–spring step, from the global sum of its contacts
+        k_dt = min(k_dt, box_dt(sim.boxes.mass, sim.boxes.blocked, boxes.stiffness_totals(sim.comm)))
+    k_dt = sim.comm.allreduce_min(k_dt)
+    young = sim.materials.column(sim.law.PWAVE_KEY)
+    pw = sim.comm.allreduce_min(pwave_dt(p.n_local, p.radius, p.mass, p.material, young))
+    # never above the P-wave step itself: a body whose few contacts allow a long step can
+    # gain many more within dt_interval steps (a sphere landing on a bed)
+    sim.dt = min(sim.dt_safety * k_dt, pw) if np.isfinite(k_dt) else sim.pwave_factor * pw

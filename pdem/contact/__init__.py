@@ -1,2 +1,45 @@
-"""Contact laws. One module per law; each provides N_PARAMS, HISTORY_WIDTH and force loops for
-the sphere–sphere, sphere–wall and sphere–facet geometries with the same signatures."""
+"""Contact laws (one module per law) and geometries; `LAWS` names the laws a scene can select.
+
+A law module provides: ``NAME``; ``N_PARAMS`` (per-contact parameters fixed at creation, Yade's
+Ip2) and ``HISTORY`` (per-contact columns carried from step to step); ``MOMENT`` (whether
+``force`` returns a rolling/twisting moment); ``MATERIAL_KEYS`` (material key -> (what is
+allowed, test); a material's law properties are these keys, in this order); ``PWAVE_KEY`` (the
+modulus key of the P-wave time-step estimate, or None) and ``FRICTION_KEY`` (or None); the
+njit-inline ``ip2(props, ma, mb, ra, rb, m1, m2, params, p)`` and ``force(...)`` called by the
+generated pair loop (`pdem.contact.loops`); and the numpy-level ``stiffness(params, history,
+overlap) -> (kn, ks)`` (time step), ``elastic_energy(params, history, overlap)`` (energy check),
+``contact_forces(params, history, overlap, normal) -> (normal force, shear force)`` and
+``PARAM_NAMES`` (name -> parameter column) for `Simulation.contacts`, and, with a friction key, ``set_friction(n, mat_i, mat_j, props, params)``.
+
+A new law is its own module plus one line in `LAWS` (or `register_law(module)` at run time, as
+tests/unit/test_law_plugin.py does). Importing this package compiles nothing.
+"""
+from importlib import import_module
+from types import ModuleType
+
+from ..errors import InputError
+
+LAWS = {"linear": "pdem.contact.linear"}
+REQUIRED = ("NAME", "N_PARAMS", "HISTORY", "MOMENT", "MATERIAL_KEYS", "PWAVE_KEY", "FRICTION_KEY", "ip2", "force",
+            "stiffness", "elastic_energy", "contact_forces", "PARAM_NAMES")
+
+
+def register_law(module):
+    """Make a law module selectable by its ``NAME``; returns the module."""
+    missing = [k for k in REQUIRED if not hasattr(module, k)]
+    if missing:
+        raise InputError(f"law {getattr(module, 'NAME', module)!r}: lacks {', '.join(missing)}")
+    LAWS[module.NAME] = module
+    return module
+
+
+def get_law(name):
+    """The law module called ``name`` (or ``name`` itself if it is a module)."""
+    if isinstance(name, ModuleType):
+        return register_law(name)
+    if name not in LAWS:
+        raise InputError(f"simulation.law = {name!r}: unknown contact law; known: {', '.join(sorted(LAWS))}")
+    law = LAWS[name]
+    if isinstance(law, str):
+        law = LAWS[name] = import_module(law)
+    return law

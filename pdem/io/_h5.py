@@ -55,3 +55,20 @@ def one_line(exc: BaseException, limit: int = 240) -> str:
     """An exception's message squeezed onto one line (HDF5 errors span several)."""
     text = " ".join(str(exc).split()) or type(exc).__name__
     return text if len(text) <= limit else text[: limit - 3] + "..."
+
+
+def open_tagged(path, schema: str, version: int, error):
+    """Open (create) an HDF5 file for appending and check or set its ``schema`` and
+    ``schema_version`` attributes; a failure raises ``error(path, one line)``."""
+    try:
+        f = open_h5(path, "a")
+    except Exception as exc:
+        raise error(path, f"cannot open as HDF5 ({one_line(exc)})") from None
+    found, found_version = f.attrs.get("schema"), f.attrs.get("schema_version")
+    if found is None:
+        f.attrs["schema"] = schema
+        f.attrs["schema_version"] = np.int64(version)
+    elif found != schema or found_version is None or int(found_version) != version:
+        f.close()
+        raise error(path, f"schema is {found!r} version {found_version}, expected {schema!r} version {version}")
+    return f

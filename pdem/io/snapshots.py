@@ -36,7 +36,7 @@ from pathlib import Path
 
 import numpy as np
 
-from pdem.io._h5 import one_line, open_h5
+from pdem.io._h5 import one_line, open_h5, open_tagged
 from pdem.io.atomic import atomic_write_text
 
 SCHEMA = "pdem-snapshots"
@@ -151,20 +151,7 @@ class SnapshotWriter:
         return self.comm is None or self.comm.rank == 0
 
     def _open(self):
-        try:
-            f = open_h5(self.h5_path, "a")
-        except Exception as exc:
-            raise SnapshotError(self.h5_path, f"cannot open as HDF5 ({one_line(exc)})") from None
-        schema, version = f.attrs.get("schema"), f.attrs.get("schema_version")
-        if schema is None:
-            f.attrs["schema"] = SCHEMA
-            f.attrs["schema_version"] = np.int64(SCHEMA_VERSION)
-        elif schema != SCHEMA or version is None or int(version) != SCHEMA_VERSION:
-            f.close()
-            raise SnapshotError(
-                self.h5_path, f"schema is {schema!r} version {version}, expected {SCHEMA!r} version {SCHEMA_VERSION}"
-            )
-        return f
+        return open_tagged(self.h5_path, SCHEMA, SCHEMA_VERSION, SnapshotError)
 
     def _prepare_append(self, restart_step, log) -> None:
         try:

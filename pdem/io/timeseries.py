@@ -1,14 +1,16 @@
-"""Results file: time series of global scalars (/series) and per-cycle tables (/cycles).
+"""Results file writers: time series of global scalars (/series) and whole tables (/cycles).
 
-Owns the layout of the results HDF5 file and its writers. Only one process writes (rank 0): the
+Owns the mechanics of writing a results HDF5 file; what the file holds (its schema name and
+version, the columns of each kind of run and their units) is defined once, in
+`analysis.schema`, and passed in by pdem's driver (the engine never imports `analysis`). Only one process writes (rank 0): the
 caller passes values already reduced over ranks; with ``comm`` given, the other ranks get a
 writer that does nothing. Which steps produce a row (the schedule) is the caller's business.
 Must not import mpi4py nor pdem physics modules. The analysis package reads this file with h5py.
 
-Layout (schema ``pdem-results``, version 1)::
+Layout::
 
     results.h5
-      attrs  schema="pdem-results", schema_version=1
+      attrs  schema, schema_version (the ``schema`` argument: checked, or set on a new file)
       series/                       attrs: columns (JSON list, column order), plus the caller's attrs
         <column>                    1-D resizable dataset, one entry per row; attr units
                                     ("step" is int64, other columns float64 unless told)
@@ -30,13 +32,11 @@ from pathlib import Path
 
 import numpy as np
 
-from pdem.io._h5 import json_dumps, one_line, open_h5
+from pdem.io._h5 import json_dumps, open_tagged
 
-SCHEMA = "pdem-results"
-SCHEMA_VERSION = 1
 _CHUNK = 1024
 
-__all__ = ["ResultsFileError", "TimeSeriesWriter", "write_table", "SCHEMA", "SCHEMA_VERSION"]
+__all__ = ["ResultsFileError", "TimeSeriesWriter", "write_table"]
 
 
 class ResultsFileError(RuntimeError):
@@ -48,23 +48,10 @@ class ResultsFileError(RuntimeError):
         super().__init__(f"{self.path.name}: {self.reason}")
 
 
-def _open_results(path: Path):
+def _open_results(path: Path, schema):
     """Open (create) the results file for writing and check or set its schema attributes."""
     path.parent.mkdir(parents=True, exist_ok=True)
-    try:
-        f = open_h5(path, "a")
-    except Exception as exc:
-        raise ResultsFileError(path, f"cannot open as HDF5 ({one_line(exc)})") from None
-    schema, version = f.attrs.get("schema"), f.attrs.get("schema_version")
-    if schema is None:
-        f.attrs["schema"] = SCHEMA
-        f.attrs["schema_version"] = np.int64(SCHEMA_VERSION)
-    elif schema != SCHEMA or version is None or int(version) != SCHEMA_VERSION:
-        f.close()
-        raise ResultsFileError(
-            path, f"schema is {schema!r} version {version}, expected {SCHEMA!r} version {SCHEMA_VERSION}"
-        )
-    return f
+    return open_tagged(path, schema[0], schema[1], ResultsFileError)
 
 
 def _set_attrs(obj, attrs) -> None:
@@ -110,15 +97,18 @@ class TimeSeriesWriter:
         True: continue an existing series (the columns must match).
     restart_step : int, optional
         With ``append``: rows with ``step > restart_step`` are dropped first.
+    schema : (str, int)
+        The file's schema name and version (checked, or set on a new file).
     group : str
         Group name, default ``series``.
     comm : Comm, optional
         If given, only rank 0 writes; elsewhere every method is a no-op.
     """
 
-    def __init__(self, path, columns, attrs=None, every=1, append=False, restart_step=None,
+    def __init__(self, path, columns, *, schema, attrs=None, every=1, append=False, restart_step=None,
                  group="series", comm=None):
         self.path = Path(path)
+        self.schema = schema
         self.group = group
         self.specs = _column_specs(columns)
         self.every = int(every)
@@ -134,7 +124,7 @@ class TimeSeriesWriter:
             self._start(attrs, append, restart_step)
 
     def _start(self, attrs, append, restart_step) -> None:
-        with _open_results(self.path) as f:
+        with _open_results(self.path, self.schema) as f:
             if not append and self.group in f:
                 del f[self.group]
             if self.group in f:
@@ -188,7 +178,7 @@ class TimeSeriesWriter:
             return
         k = len(self._buffer)
         data = list(zip(*self._buffer))
-        with _open_results(self.path) as f:
+        with _open_results(self.path, self.schema) as f:
             g = f[self.group]
             for i, c in enumerate(self.specs):
                 ds = g[c]
@@ -210,7 +200,7 @@ class TimeSeriesWriter:
         self.close()
 
 
-def write_table(path, group, columns, units, attrs=None, comm=None) -> None:
+def write_table(path, group, columns, units, *, schema, attrs=None, comm=None) -> None:
     """Write a whole table (e.g. one row per load cycle) to ``/<group>``, replacing it.
 
     Parameters
@@ -225,6 +215,8 @@ def write_table(path, group, columns, units, attrs=None, comm=None) -> None:
         Column name -> units string, for every column.
     attrs : dict, optional
         Attributes of the group.
+    schema : (str, int)
+        The file's schema name and version (checked, or set on a new file).
     comm : Comm, optional
         If given, only rank 0 writes.
     """
@@ -238,7 +230,7 @@ def write_table(path, group, columns, units, attrs=None, comm=None) -> None:
     missing = sorted(set(arrays) - set(units))
     if missing:
         raise ValueError(f"table {group}: no units for columns {missing}")
-    with _open_results(path) as f:
+    with _open_results(path, schema) as f:
         if group in f:
             del f[group]
         g = f.create_group(group)

@@ -156,15 +156,14 @@ class SlabDomain:
         self.comm_seconds += _time.perf_counter() - t0
 
     def _loads(self, sim):
-        """Work per owned body: 1 + its real contacts (sphere pairs, walls, facets)."""
+        """Work per owned body: 1 + its real contacts (of every kind)."""
         p = sim.particles
         nl = p.n_local
         w = np.ones(nl)
-        for cl in (sim.ss, sim.sw, sim.sf, sim.sb):
-            if cl is None or cl.n == 0:
+        for kind in sim.kinds:
+            if kind.contacts.n == 0:
                 continue
-            rows = cl.real_rows()
-            for idx in ((cl.i[rows], cl.j[rows]) if cl is sim.ss else (cl.i[rows],)):
+            for idx in kind.body_rows(kind.contacts.real_rows()):
                 idx = idx[(idx >= 0) & (idx < nl)]
                 w += np.bincount(idx, minlength=nl)[:nl]
         return w
@@ -244,11 +243,10 @@ class SlabDomain:
         bi = np.concatenate([mig_dest[:, None].astype(np.int64), bi], axis=1)
         # contacts: every real row that involves a migrating body
         parcels = []
-        for cl, sphere in ((sim.ss, True), (sim.sw, False), (sim.sf, False), (sim.sb, False)):
-            if cl is None:
-                continue
+        for kind in sim.kinds:
+            cl = kind.contacts
             real = cl.real_rows()
-            rows, cdest = migrating_contacts(cl.key[real], sphere, mig_gid, mig_dest)
+            rows, cdest = migrating_contacts(cl.key[real], kind.sphere_pair, mig_gid, mig_dest)
             rows = real[rows]
             ci = np.stack([cdest, cl.key[rows], cl.state[rows].astype(np.int64)], axis=1)
             cf = np.concatenate([cl.params[rows], cl.history[rows]], axis=1)

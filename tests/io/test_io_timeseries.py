@@ -5,7 +5,14 @@ import numpy as np
 import pytest
 from io_fakecomm import run_ranks
 
-from pdem.io.timeseries import ResultsFileError, TimeSeriesWriter, write_table
+from functools import partial
+
+from pdem.io import timeseries
+from pdem.io.timeseries import ResultsFileError
+
+SCHEMA = ("pdem-results", 1)
+TimeSeriesWriter = partial(timeseries.TimeSeriesWriter, schema=SCHEMA)
+write_table = partial(timeseries.write_table, schema=SCHEMA)
 
 COLUMNS = {"step": "1", "time": "s", "f_platen": "N", "settlement": "m"}
 

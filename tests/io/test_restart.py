@@ -61,7 +61,7 @@ def body_state(sim):
 
 
 def assert_same_bits(a, b, what):
-    a, b = np.asarray(a), np.asarray(b)
+    a, b = np.ascontiguousarray(a), np.ascontiguousarray(b)
     assert a.shape == b.shape and a.dtype == b.dtype, f"{what}: {a.shape} {a.dtype} vs {b.shape} {b.dtype}"
     assert np.array_equal(a.view(np.uint8), b.view(np.uint8)), (
         f"{what}: differs in {np.count_nonzero(a != b)} entries, max |diff| {np.max(np.abs(a - b)) if a.size else 0}")

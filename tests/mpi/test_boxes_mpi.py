@@ -60,5 +60,5 @@ def test_box_trajectory_rank_invariant(comm):
     assert not comm.any_flag(not same), f"rank {comm.rank}: box trajectory differs from serial from sample {first}"
     assert np.max(ref[:, 8]) > 0.0, "the box never touched the bed"
     if comm.size > 1:
-        assert comm.allreduce_sum_int(len(sim.sb.real_rows())) > 0
-        assert comm.allreduce_sum_int(int(len(sim.sb.real_rows()) > 0)) > 1, "box contacts on one rank only"
+        assert comm.allreduce_sum_int(len(sim.kind("sphere_box").contacts.real_rows())) > 0
+        assert comm.allreduce_sum_int(int(len(sim.kind("sphere_box").contacts.real_rows()) > 0)) > 1, "box contacts on one rank only"

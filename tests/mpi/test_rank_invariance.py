@@ -52,7 +52,7 @@ def owned_columns(sim):
 
 
 def straddling_contacts(sim):
-    ss, n = sim.ss, sim.particles.n_local
+    ss, n = sim.kind("sphere_sphere").contacts, sim.particles.n_local
     rows = ss.real_rows()
     return int(np.count_nonzero((ss.i[rows] >= n) | (ss.j[rows] >= n)))
 

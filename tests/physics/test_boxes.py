@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 
 from pdem import InputError, Scene
-from pdem.cycles import CycleRecorder
+from pdem.driver.cycles import CycleRecorder
 from pdem.loads import Constant, Haversine
-from pdem.observables import box_forces, box_positions
+from pdem.driver.observables import box_forces, box_positions
 
 G = 9.81
 R = 0.01
@@ -37,10 +37,10 @@ def test_static_overlap_on_fixed_box():
     sc.add_box((0.0, 0.0, 0.0), HALF, steel, mass=34.0, fixed=True)
     sim = sc.build()
     sim.run(40000)
-    rows = sim.sb.real_rows()
+    rows = sim.kind("sphere_box").contacts.real_rows()
     assert len(rows) == 1
-    assert sim.sb.params[rows[0], 0] == pytest.approx(KN_BOX, rel=1e-14)
-    assert sim.sb.overlap[rows[0]] == pytest.approx(M_S * G / KN_BOX, rel=1e-6)
+    assert sim.kind("sphere_box").contacts.params[rows[0], 0] == pytest.approx(KN_BOX, rel=1e-14)
+    assert sim.kind("sphere_box").contacts.overlap[rows[0]] == pytest.approx(M_S * G / KN_BOX, rel=1e-6)
     assert box_forces(sim)[0] == pytest.approx([0.0, 0.0, -M_S * G], rel=1e-6, abs=1e-12)
     assert box_positions(sim)[0].tolist() == [0.0, 0.0, 0.0]
 
@@ -66,10 +66,10 @@ def test_contact_normal_is_closest_point_direction(where):
     sc.add_box((0.0, 0.0, 0.0), HALF, steel, mass=34.0, fixed=True)
     sim = sc.build()
     sim.run(1)
-    assert sim.sb.state[0] == 1
-    np.testing.assert_allclose(sim.sb.history[0, 3:6], n, rtol=0, atol=1e-15)
-    assert sim.sb.overlap[0] == pytest.approx(pen, rel=1e-12)
-    np.testing.assert_allclose(sim.sb.force[0], KN_BOX * pen * n, rtol=1e-12, atol=1e-18)
+    assert sim.kind("sphere_box").contacts.state[0] == 1
+    np.testing.assert_allclose(sim.kind("sphere_box").contacts.history[0, 3:6], n, rtol=0, atol=1e-15)
+    assert sim.kind("sphere_box").contacts.overlap[0] == pytest.approx(pen, rel=1e-12)
+    np.testing.assert_allclose(sim.kind("sphere_box").contacts.force[0], KN_BOX * pen * n, rtol=1e-12, atol=1e-18)
     if where in ("edge", "corner"):
         assert np.count_nonzero(n) == (2 if where == "edge" else 3)
 
@@ -95,9 +95,9 @@ def test_newton_third_law_and_momentum():
     most = 0
     for _ in range(200):
         sim.run(1)
-        rows = sim.sb.real_rows()
+        rows = sim.kind("sphere_box").contacts.real_rows()
         most = max(most, len(rows))
-        expect = [-math.fsum(sim.sb.force[rows, c]) for c in range(3)]
+        expect = [-math.fsum(sim.kind("sphere_box").contacts.force[rows, c]) for c in range(3)]
         assert sim.boxes.contact_force[0].tolist() == expect
     assert most == 5
     p1 = (p.mass[: p.n_local, None] * p.vel[: p.n_local]).sum(0) + sim.boxes.mass[0] * sim.boxes.velocity[0]
@@ -120,7 +120,7 @@ def test_loaded_box_settles_on_bed_of_fixed_spheres():
     assert box_forces(sim)[0, 2] == pytest.approx(load + mass * G, rel=1e-6)
     assert sim.boxes.center[0, 2] == pytest.approx(R + half[2] - pen, abs=1e-6 * pen)
     assert abs(sim.boxes.velocity[0, 2]) < 1e-6
-    np.testing.assert_allclose(sim.sb.overlap[sim.sb.real_rows()], pen, rtol=1e-5)
+    np.testing.assert_allclose(sim.kind("sphere_box").contacts.overlap[sim.kind("sphere_box").contacts.real_rows()], pen, rtol=1e-5)
 
 
 def test_blocked_dofs_hold_under_oblique_contacts():
@@ -169,7 +169,7 @@ def test_box_input_errors_and_no_boxes():
         sc.add_box((0, 0, 0), (0.1, -0.1, 0.1), steel, mass=1.0)
     sc.add_spheres([(0.0, 0.0, 0.0)], R, ball)
     sim = sc.build()
-    assert sim.sb is None and sim.boxes is None and "boxes" not in sim.spec
+    assert sim.kind("sphere_box") is None and sim.boxes is None and "boxes" not in sim.spec
 
 
 def test_haversine_on_box_and_cycle_record():

@@ -38,7 +38,7 @@ def test_elastic_bounce_conserves_energy(gap):
     assert e0["total"] == pytest.approx(0.5 * M * 1.0, rel=1e-15)
     touched = []
     t_contact = math.pi * math.sqrt(M / KN_WALL)
-    sim.run(int((gap / 1.0 + 2 * t_contact) / dt), lambda s: touched.append(s.sw.state[0] == 1), every=1)
+    sim.run(int((gap / 1.0 + 2 * t_contact) / dt), lambda s: touched.append(s.kind("sphere_wall").contacts.state[0] == 1), every=1)
     assert any(touched) and not touched[-1], "the sphere must hit the wall and leave it again"
     assert p.vel[0, 2] > 0.0
     assert abs(np.linalg.norm(p.vel[0]) / 1.0 - 1.0) < 1e-6
@@ -86,10 +86,10 @@ def test_static_overlap():
     """(d) Sphere resting on a wall under gravity, Cundall damping: overlap → m g / k_n (1e-6 relative)."""
     sim = sphere_on_wall(dt=1e-5, damping=0.3, gravity=G, z=R)
     sim.run(4000)
-    rows = sim.sw.real_rows()
+    rows = sim.kind("sphere_wall").contacts.real_rows()
     assert len(rows) == 1
-    assert sim.sw.params[rows[0], 0] == pytest.approx(KN_WALL, rel=1e-15)
-    assert sim.sw.overlap[rows[0]] == pytest.approx(M * G / KN_WALL, rel=1e-6)
+    assert sim.kind("sphere_wall").contacts.params[rows[0], 0] == pytest.approx(KN_WALL, rel=1e-15)
+    assert sim.kind("sphere_wall").contacts.overlap[rows[0]] == pytest.approx(M * G / KN_WALL, rel=1e-6)
     assert abs(sim.particles.vel[0, 2]) < 1e-9
 
 
@@ -109,8 +109,8 @@ def test_time_step_limit(factor, stable, energy_check):
                          poisson=0.2, energy_check=energy_check)
     if stable:
         sim.run(20000)
-        assert sim.sw.state[0] == 1
-        assert abs(sim.sw.overlap[0] / delta - 1.0) < 0.5
+        assert sim.kind("sphere_wall").contacts.state[0] == 1
+        assert abs(sim.kind("sphere_wall").contacts.overlap[0] / delta - 1.0) < 0.5
     else:
         with pytest.raises(InstabilityError) as err:
             sim.run(20000)

@@ -7,9 +7,8 @@ import textwrap
 from pathlib import Path
 
 import numpy as np
-import pytest
 
-from pdem import kernels
+from pdem import diagnostics
 from physics_scenes import box_scene
 
 HERE = Path(__file__).resolve().parent
@@ -22,7 +21,7 @@ def sphere_sphere_share(sim):
     n = p.n_local
     f = p.force[:n].copy()
     t = p.torque[:n].copy()
-    sw = sim.sw
+    sw = sim.kind("sphere_wall").contacts
     for q in range(sw.n):
         if sw.state[q] == 1:
             f[sw.i[q]] -= sw.force[q]
@@ -39,8 +38,8 @@ def test_newton_third_law_and_angular_momentum():
     n = p.n_local
     x = p.pos[:n].copy()
     sim.run(1)
-    rows = sim.ss.real_rows()
-    per_body = np.bincount(np.concatenate([sim.ss.i[rows], sim.ss.j[rows]]), minlength=n)
+    rows = sim.kind("sphere_sphere").contacts.real_rows()
+    per_body = np.bincount(np.concatenate([sim.kind("sphere_sphere").contacts.i[rows], sim.kind("sphere_sphere").contacts.j[rows]]), minlength=n)
     assert per_body.max() >= 4 and len(rows) > 100, "the packing must be dense"
     f, t = sphere_sphere_share(sim)
     scale_f = np.abs(f).sum()
@@ -50,9 +49,9 @@ def test_newton_third_law_and_angular_momentum():
     scale_m = np.abs(np.cross(x, f)).sum() + np.abs(t).sum()
     assert np.abs(moment.sum(axis=0)).max() <= 1e-10 * scale_m
     # and per contact, from the pair rows: f on i, −f on j, torques (r − pen/2)(n × f)
-    i, j = sim.ss.i[rows], sim.ss.j[rows]
-    fp = sim.ss.force[rows]
-    m_pair = np.cross(x[i], fp) - np.cross(x[j], fp) + sim.ss.torque_i[rows] + sim.ss.torque_j[rows]
+    i, j = sim.kind("sphere_sphere").contacts.i[rows], sim.kind("sphere_sphere").contacts.j[rows]
+    fp = sim.kind("sphere_sphere").contacts.force[rows]
+    m_pair = np.cross(x[i], fp) - np.cross(x[j], fp) + sim.kind("sphere_sphere").contacts.torque_i[rows] + sim.kind("sphere_sphere").contacts.torque_j[rows]
     assert np.abs(m_pair).max() <= 1e-10 * np.abs(np.cross(x[i], fp)).max()
 
 
@@ -71,8 +70,8 @@ def test_stiff_auto_dt_stable():
     dts = []
     for _ in range(60):
         sim.run(50)
-        worst = max(worst, sim.max_overlap_ratio_now()[0])
-        contacts = max(contacts, len(sim.ss.real_rows()) + len(sim.sw.real_rows()))
+        worst = max(worst, diagnostics.max_overlap_ratio(sim)[0])
+        contacts = max(contacts, len(sim.kind("sphere_sphere").contacts.real_rows()) + len(sim.kind("sphere_wall").contacts.real_rows()))
         dts.append(sim.dt)
     assert sim.step == 3000
     assert contacts >= 10
@@ -94,9 +93,9 @@ THREAD_SCRIPT = textwrap.dedent("""
                     spacing=1.01).build()
     sim.run(150)
     p = sim.particles
-    assert sim.ss.n >= kernels.PARALLEL_MIN, sim.ss.n
+    assert sim.kind("sphere_sphere").contacts.n >= kernels.PARALLEL_MIN, sim.kind("sphere_sphere").contacts.n
     assert numba.get_num_threads() == int(sys.argv[1])
-    n_real = len(sim.ss.real_rows())
+    n_real = len(sim.kind("sphere_sphere").contacts.real_rows())
     assert n_real > 100, n_real
     order = p.gid[: p.n_local].argsort()
     with open(sys.argv[2], "wb") as fh:

@@ -1,4 +1,4 @@
-"""The box test end to end (`pdem.boxtest`) through the command line, on 1, 2 and 3 ranks.
+"""The box test end to end (`pdem.scenes.box_test`) through the command line, on 1, 2 and 3 ranks.
 
 A small box test (about 650 spheres, stiffness scaled down, 2 cycles at 5 Hz) runs all five
 stages (pour, refill, vibrate, settle, load). The same scene on 1 and 2 ranks must give the same
@@ -12,7 +12,6 @@ import shutil
 import signal
 import subprocess
 import time
-from pathlib import Path
 
 import h5py
 import numpy as np

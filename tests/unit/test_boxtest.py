@@ -1,11 +1,11 @@
-"""Pieces of the box-test pipeline (`pdem.boxtest`) without running it: trimming, cloud sizing,
+"""Pieces of the box-test pipeline (`pdem.scenes.box_test`) without running it: trimming, cloud sizing,
 sleeper placement, and friction lowered and restored for the vibration stage (Ip2 again)."""
 from math import pi, tan
 
 import numpy as np
-import pytest
 
-from pdem.boxtest import DEFAULTS, cloud, cloud_count, remove_above, sleeper_geometry
+from pdem.driver.stages import remove_above
+from pdem.scenes.box_test import DEFAULTS, cloud, cloud_count, sleeper_geometry
 from pdem.scene import Scene
 
 
@@ -51,16 +51,16 @@ def test_friction_scale_reruns_ip2_for_existing_contacts_and_restores_bits():
     scene.add_wall("z", 0.0, b, sense=1)
     sim = scene.build()
     sim.run(1)
-    for cl in (sim.ss, sim.sw):
+    for cl in (sim.kind("sphere_sphere").contacts, sim.kind("sphere_wall").contacts):
         assert len(cl.real_rows()) > 0
-    before = {id(cl): cl.params[: cl.n].copy() for cl in (sim.ss, sim.sw)}
+    before = {id(cl): cl.params[: cl.n].copy() for cl in (sim.kind("sphere_sphere").contacts, sim.kind("sphere_wall").contacts)}
     sim.set_friction_scale(0.1)
-    ss = sim.ss.real_rows()
-    expect = [tan(0.05) if {int(sim.particles.material[i]) for i in (sim.ss.i[k], sim.ss.j[k])} == {0}
+    ss = sim.kind("sphere_sphere").contacts.real_rows()
+    expect = [tan(0.05) if {int(sim.particles.material[i]) for i in (sim.kind("sphere_sphere").contacts.i[k], sim.kind("sphere_sphere").contacts.j[k])} == {0}
               else tan(0.03) for k in ss]
-    assert np.array_equal(sim.ss.params[ss, 2], expect)
-    assert np.all(sim.sw.params[sim.sw.real_rows(), 2] == tan(0.03))
-    assert np.array_equal(sim.friction, np.array([0.5, 0.3]) * 0.1)
+    assert np.array_equal(sim.kind("sphere_sphere").contacts.params[ss, 2], expect)
+    assert np.all(sim.kind("sphere_wall").contacts.params[sim.kind("sphere_wall").contacts.real_rows(), 2] == tan(0.03))
+    assert np.array_equal(sim.props[:, 2], np.array([0.5, 0.3]) * 0.1)
     sim.set_friction_scale(1.0)
-    for cl in (sim.ss, sim.sw):
+    for cl in (sim.kind("sphere_sphere").contacts, sim.kind("sphere_wall").contacts):
         assert np.array_equal(cl.params[: cl.n], before[id(cl)])

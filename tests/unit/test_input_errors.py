@@ -49,7 +49,7 @@ def test_overlap_allowed_when_asked():
                simulation={"allow_initial_overlap": True})
     sim = scene_from_dict(doc).build()
     sim.run(1)
-    assert sim.ss.state[: sim.ss.n].sum() == 1
+    assert sim.kind("sphere_sphere").contacts.state[: sim.kind("sphere_sphere").contacts.n].sum() == 1
 
 
 def test_cli_exit_status_2_and_one_line(tmp_path):

@@ -93,7 +93,7 @@ def test_scrambled_rows_give_the_same_bits(domain):
     b.domain.renumber_owned(np.arange(b.particles.n_local))  # no ghosts on one rank
     b.rebuild()
     b.n_rebuilds = a.n_rebuilds
-    real = len(b.ss.real_rows())
+    real = len(b.kind("sphere_sphere").contacts.real_rows())
     a.run(1000)
     b.run(1000)
     ra, rb = by_gid(a), by_gid(b)
@@ -108,7 +108,7 @@ def test_state0_rows_are_clear():
     sim = box_scene().build()
     for _ in range(4):
         sim.run(60)
-        for cl in (sim.ss, sim.sw):
+        for cl in (sim.kind("sphere_sphere").contacts, sim.kind("sphere_wall").contacts):
             off = np.flatnonzero(cl.state[: cl.n] == 0)
             for arr in (cl.history, cl.force, cl.torque_i, cl.torque_j, cl.overlap):
                 assert not np.any(arr[off]), arr

@@ -61,31 +61,25 @@ def set_yade_mass(sim, d, gid_of):
 
 
 def real_contacts(sim, gid_of, other):
-    """pdem's real contacts keyed like Yade's interactions (id1, id2) -> dict of Yade-named quantities.
+    """pdem's real contacts keyed like Yade's interactions (id1, id2) -> dict of Yade-named quantities,
+    read through the public API (`Simulation.contacts`).
 
     Yade: normalForce = kn·pen·n (force on body 2), shearForce = Fs, force on body 1 = −Fn − Fs."""
-    p = sim.particles
     yade_of_gid = {g: i for i, g in gid_of.items()}
-    wall_id = {idx: i for i, (kind, idx) in other.items() if kind == "wall"}
-    facet_id = {idx: i for i, (kind, idx) in other.items() if kind == "facet"}
+    ids = {kind: {idx: i for i, (k, idx) in other.items() if k == kind} for kind in ("wall", "facet")}
     out = {}
-    for cl, kind in ((sim.ss, "sphere"), (sim.sw, "wall"), (sim.sf, "facet")):
-        if cl is None:
-            continue
-        for q in cl.real_rows():
-            kn, ks, tphi = cl.params[q]
-            pen = cl.overlap[q]
-            n = cl.history[q, 3:6]
-            fs = cl.history[q, :3]
-            if kind == "sphere":
-                key = (yade_of_gid[int(p.gid[cl.i[q]])], yade_of_gid[int(p.gid[cl.j[q]])])
-                f_on_2 = -cl.force[q]
+    for kind in sim.kinds:
+        c = sim.contacts(kind.name)
+        boundary = kind.name.split("_", 1)[1]
+        for q in range(len(c["gid1"])):
+            sphere = yade_of_gid[int(c["gid1"][q])]
+            if kind.sphere_pair:
+                key = (sphere, yade_of_gid[int(c["gid2"][q])])
             else:
-                ids = wall_id if kind == "wall" else facet_id
-                key = (ids[int(cl.j[q])], yade_of_gid[int(p.gid[cl.i[q]])])
-                f_on_2 = cl.force[q].copy()
-            out[key] = {"normalForce": (kn * max(pen, 0.0)) * n, "shearForce": fs.copy(), "penetrationDepth": pen,
-                        "normal": n.copy(), "kn": kn, "ks": ks, "tangensOfFrictionAngle": tphi, "force_on_2": f_on_2}
+                key = (ids[boundary][int(c["index"][q])], sphere)
+            out[key] = {"normalForce": c["normal_force"][q], "shearForce": c["shear_force"][q],
+                        "penetrationDepth": c["overlap"][q], "normal": c["normal"][q], "kn": c["kn"][q],
+                        "ks": c["ks"][q], "tangensOfFrictionAngle": c["tan_phi"][q], "force_on_2": c["force"][q]}
     return out
 
 

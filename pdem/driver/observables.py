@@ -9,35 +9,24 @@ the rank count (exact sums, max/min reductions).
 """
 import numpy as np
 
+from ..state import DOF_ALL
+
 
 def wall_forces(sim):
-    """[n_walls, 3] total force exerted by the spheres on each wall [N]."""
-    nw = len(sim.walls)
-    if sim.sw is None:
-        return np.zeros((nw, 3))
-    cl = sim.sw
-    rows = cl.real_rows()
-    out = np.zeros((nw, 3))
-    for w in range(nw):
-        sel = rows[cl.j[rows] == w]
-        out[w] = -sim.comm.exact_sum_rows(np.ascontiguousarray(cl.force[sel])) if len(sel) else -sim.comm.exact_sum_rows(np.zeros((0, 3)))
-    return out
+    """[n_walls, 3] total force exerted by the spheres on each wall [N] (exact sums)."""
+    kind = sim.kind("sphere_wall")
+    return np.zeros((len(sim.walls), 3)) if kind is None else kind.totals(sim.comm)
 
 
 def unbalanced_force(sim):
+    """Yade's unbalanced force ratio: mean |net force| on the free owned bodies (gravity
+    included) over the mean |contact force| [-]; 1 when there are no contacts."""
     p = sim.particles
     nl = p.n_local
-    free = p.blocked[:nl] != 63
+    free = p.blocked[:nl] != DOF_ALL
     net = p.force[:nl][free] + p.mass[:nl][free, None] * sim.gravity
     body = np.linalg.norm(net, axis=1)
-    mags = []
-    for cl in (sim.ss, sim.sw, sim.sf, sim.sb):
-        if cl is None:
-            continue
-        rows = cl.real_rows()
-        if cl is sim.ss:
-            rows = rows[cl.i[rows] < nl]
-        mags.append(np.linalg.norm(cl.force[rows], axis=1))
+    mags = [np.linalg.norm(kind.contacts.force[kind.owned_rows(nl)], axis=1) for kind in sim.kinds]
     mags = np.concatenate(mags) if mags else np.zeros(0)
     n_body = sim.comm.allreduce_sum_int(int(free.sum()))
     n_cont = sim.comm.allreduce_sum_int(len(mags))

@@ -32,26 +32,22 @@ series ``sleeper_load``, ``sleeper_force`` [N, ballast reaction, positive up],
 ``preparation.png``, the analysis of `analysis.box` (``loops.png``, ``settlement.png``,
 ``stiffness.png``, ``analysis.txt``) and ``summary.txt`` with the timing table.
 """
-import time as _time
 from math import cos, pi, sin
-from pathlib import Path
 
 import numpy as np
+from analysis.schema import BOX_TEST_SERIES, PREPARATION_SERIES
 
-from . import __version__, observables
-from .config import _check_keys, run_settings, scene_from_dict
-from .cycles import CycleRecorder
-from .errors import InputError
-from .generators import loose_cloud
-from .io.checkpoint import CheckpointError, read_checkpoint
-from .io.snapshots import SnapshotWriter
-from .io.timeseries import TimeSeriesWriter, write_table
-from .loads import Haversine
-from .run import (RunLoop, plot_energy, prepare_output, resume_point, save_figure, series_figure,
-                  write_root_attrs, write_snapshot)
-from .scene import sphere_columns
-from .simulation import Timers
-from .state import FIELDS
+from ..config import check_keys, run_settings, scene_from_dict
+from ..driver import observables
+from ..driver.cycles import CycleRecorder
+from ..driver.plain import write_snapshot
+from ..driver.plots import plot_energy, save_figure, series_figure
+from ..driver.results import series_writer, write_cycles, write_root_attrs
+from ..driver.stages import StagedRun, append_bodies, check_no_steps, empty_tables, remove_above
+from ..errors import InputError
+from ..generators import loose_cloud
+from ..loads import Haversine
+from ..validate import number
 
 STAGES = ("pour", "refill", "vibrate", "settle", "load")
 # [box_test] keys and defaults (SPEC.md 2.3, thesis table 5.1; stiffness is in [materials])
@@ -71,42 +67,34 @@ DEFAULTS = {
     "vibration_friction_factor": 0.1,
     "f_min": 3000.0, "f_max": 40000.0, "frequency": 1.0, "cycles": 10,
 }
-PREP_SERIES = {"step": "-", "time": "s", "stage": "-", "n_spheres": "-", "kinetic_energy": "J",
-               "unbalanced_force": "-", "contacts_per_particle": "-", "bed_top": "m", "sleeper_z": "m"}
-LOAD_SERIES = {"step": "-", "time": "s", "dt": "s", "sleeper_load": "N", "sleeper_force": "N",
-               "sleeper_settlement": "m", "kinetic_energy": "J", "contacts_per_particle": "-"}
-CYCLE_UNITS = {"cycle": "-", "t_start": "s", "settlement_start": "m", "settlement_peak": "m", "settlement_end": "m",
-               "force_peak": "N", "force_min": "N", "load_max": "N", "load_min": "N", "step": "-"}
 
 
 # ---------------------------------------------------------------------------- settings
 def box_settings(doc):
     """The [box_test] table with defaults, checked (one-line InputError naming the key)."""
     given = doc["box_test"]
-    _check_keys("box_test", given, set(DEFAULTS))
+    check_keys("box_test", given, set(DEFAULTS))
     c = {**DEFAULTS, **given}
     for k in ("box", "sleeper_size"):
         v = c[k]
-        if not (isinstance(v, list) and len(v) == 3 and all(isinstance(x, (int, float)) and x > 0 for x in v)):
+        if not (isinstance(v, list) and len(v) == 3):
             raise InputError(f"box_test.{k} = {v!r}: must be [x, y, z] lengths > 0 [m]")
+        c[k] = [number(f"box_test.{k}", x, 0.0, lo_open=True, allow="[x, y, z] lengths > 0 [m]") for x in v]
     for k in ("ballast_material", "wall_material", "base_material", "sleeper_material"):
-        if c[k] not in doc.get("materials", {}):
+        if not isinstance(c[k], str) or c[k] not in doc.get("materials", {}):
             raise InputError(f"box_test.{k} = {c[k]!r}: no [materials.{c[k]}] table in the scene file")
     positive = ("radius", "packing_fraction", "overfill", "cut_height", "height", "sleeper_mass", "settle_ratio",
                 "settle_max_time", "vibration_frequency", "frequency")
     for k in positive:
-        if not isinstance(c[k], (int, float)) or not c[k] > 0:
-            raise InputError(f"box_test.{k} = {c[k]!r}: must be a number > 0")
+        c[k] = number(f"box_test.{k}", c[k], 0.0, lo_open=True)
     for k in ("settle_min_time", "vibration_time", "vibration_acceleration", "f_min", "f_max"):
-        if not isinstance(c[k], (int, float)) or not c[k] >= 0:
-            raise InputError(f"box_test.{k} = {c[k]!r}: must be a number >= 0")
+        c[k] = number(f"box_test.{k}", c[k], 0.0)
     for k in ("seed", "cycles", "check_every"):
-        if not isinstance(c[k], int) or c[k] < (0 if k == "seed" else 1):
-            raise InputError(f"box_test.{k} = {c[k]!r}: must be an integer >= {0 if k == 'seed' else 1}")
-    if not 0 <= c["radius_spread"] < 1:
-        raise InputError(f"box_test.radius_spread = {c['radius_spread']!r}: must be in [0, 1)")
-    if not 0 < c["vibration_friction_factor"] <= 1:
-        raise InputError(f"box_test.vibration_friction_factor = {c['vibration_friction_factor']!r}: must be in (0, 1]")
+        c[k] = number(f"box_test.{k}", c[k], 0 if k == "seed" else 1, integer=True)
+    c["radius_spread"] = number("box_test.radius_spread", c["radius_spread"], 0.0, 1.0, hi_open=True,
+                                allow="in [0, 1)")
+    c["vibration_friction_factor"] = number("box_test.vibration_friction_factor", c["vibration_friction_factor"], 0.0,
+                                            1.0, lo_open=True, allow="in (0, 1]")
     if c["f_max"] < c["f_min"]:
         raise InputError(f"box_test.f_max = {c['f_max']!r}: must be >= f_min = {c['f_min']!r} [N]")
     if not c["cut_height"] < c["height"] <= c["box"][2]:
@@ -149,15 +137,6 @@ def cloud(c, lo_xy, hi_xy, z0, volume, seed):
     return loose_cloud([lo_xy[0], lo_xy[1], z0], [hi_xy[0], hi_xy[1], top], n, c["radius"], c["radius_spread"], seed)
 
 
-def remove_above(tables, height):
-    """Drop the spheres whose top z + r is above ``height`` [m]; returns (tables, removed)."""
-    p = tables["particles"]
-    keep = p["pos"][:, 2] + p["radius"] <= height
-    out = dict(tables)
-    out["particles"] = {k: v[keep] for k, v in p.items()}
-    return out, int((~keep).sum())
-
-
 # ---------------------------------------------------------------------------- stage scenes
 def stage_scene(doc, c, stage, tables, load_start=None, sleeper_center=None):
     """The `Scene` of ``stage`` holding the spheres of ``tables``: materials and settings of
@@ -186,52 +165,8 @@ def stage_scene(doc, c, stage, tables, load_start=None, sleeper_center=None):
 def add_cloud(tables, doc, c, lo_xy, hi_xy, z0, volume, seed, first_gid):
     """``tables`` with a loose cloud of new ballast spheres (gids from ``first_gid``) appended."""
     pos, radius = cloud(c, lo_xy, hi_xy, z0, volume, seed)
-    density = doc["materials"][c["ballast_material"]]["density"]
-    new = sphere_columns(pos, radius, np.full(len(radius), float(density)), first_gid)
-    new["material"] = np.full(len(radius), list(doc["materials"]).index(c["ballast_material"]), np.int64)
-    new["blocked"] = np.zeros(len(radius), np.int64)
-    out = dict(tables)
-    old = tables["particles"]
-    out["particles"] = {k: np.concatenate([old[k], new[k]]) for k in old}
-    return out
-
-
-def empty_tables():
-    return {"particles": {k: np.zeros((0,) + shape, dtype) for k, (dtype, shape) in FIELDS.items()}}
-
-
-def start_stage(doc, c, stage, tables, state, time):
-    """Apply the operations that open ``stage`` (remove, pour, place) to the global ``tables``;
-    returns the new tables and a log line."""
-    lx, ly, _ = c["box"]
-    h1, h2 = c["cut_height"], c["height"]
-    if stage == "pour":
-        tables = add_cloud(empty_tables(), doc, c, (0.0, 0.0), (lx, ly), 0.0, lx * ly * h1, c["seed"], 0)
-        note = f"poured {len(tables['particles']['gid'])} spheres"
-    elif stage == "refill":
-        tables, removed = remove_above(tables, h1)
-        center, half = sleeper_geometry(c, h1)
-        x0, x1 = center[0] - half[0], center[0] + half[0]
-        gid = state["next_gid"]
-        n0 = len(tables["particles"]["gid"])
-        for k, (a, b) in enumerate(((0.0, x0), (x1, lx))):
-            if b - a <= 0:
-                continue
-            tables = add_cloud(tables, doc, c, (a, 0.0), (b, ly), h1, (b - a) * ly * (h2 - h1), c["seed"] + 1000 + k, gid)
-            gid = int(tables["particles"]["gid"].max()) + 1
-        note = (f"removed {removed} spheres above {h1} m, placed the sleeper, poured "
-                f"{len(tables['particles']['gid']) - n0} spheres beside it")
-    elif stage == "vibrate":
-        tables, removed = remove_above(tables, h2)
-        note = f"removed {removed} spheres above {h2} m"
-    else:
-        note = ""
-    gids = tables["particles"]["gid"]
-    state["next_gid"] = max(state["next_gid"], int(gids.max()) + 1 if len(gids) else 0)
-    state.update(started=True, stage_t0=time)
-    if stage == "load":
-        state["load_start"] = time
-    return tables, note
+    return append_bodies(tables, pos, radius, doc["materials"][c["ballast_material"]]["density"],
+                         list(doc["materials"]).index(c["ballast_material"]), first_gid)
 
 
 def shaking(c, t):
@@ -240,7 +175,7 @@ def shaking(c, t):
     return np.array([a * sin(w * t), a * cos(w * t), 0.0])
 
 
-# ---------------------------------------------------------------------------- the run
+# ---------------------------------------------------------------------------- records
 def prep_sample(sim, stage):
     e = sim.energy()
     return {"step": sim.step, "time": sim.time, "stage": STAGES.index(stage),
@@ -271,122 +206,96 @@ def cycle_columns(recorder):
             "load_min": t["load_min"], "step": np.array([r.get("step", 0) for r in recorder.records], np.float64)}
 
 
-def run_box_test(path, doc, out_dir, comm, steps=None, fresh=False):
+# ---------------------------------------------------------------------------- the run
+def check(doc):
+    """Check a parsed box-test scene file without running it (one-line InputError)."""
+    box_settings(doc)
+    run_settings(doc)
+    stage_scene(doc, box_settings(doc), "load", empty_tables(), 0.0, None)
+
+
+def run(path, doc, out_dir, comm, steps=None, fresh=False):
     """Run (or resume) the box test of a parsed scene file; returns the exit status."""
-    if steps is not None:
-        raise InputError(f"--steps = {steps}: not used by a box test (its stages end on settle_ratio, "
-                         "vibration_time and cycles in [box_test])")
+    check_no_steps(steps)
     return BoxTestRun(path, doc, out_dir, comm, fresh).run()
 
 
-class BoxTestRun:
-    """One box test on this process's ranks: the stage loop, its outputs and its checkpoints.
+class BoxTestRun(StagedRun):
+    """One box test on this process's ranks (`pdem.driver.stages.StagedRun`): the stages, their
+    records (preparation.h5, results.h5 with the cycles) and the finishing analysis. The scene's
+    ``state`` adds the load start and the cycle recorder."""
 
-    ``state`` (JSON-able, in every checkpoint) is where the pipeline is: the stage index, whether
-    its opening operations were applied, its start time, the next free gid, the load start, the
-    cycle recorder and a summary row per finished stage."""
+    NAME = "box_test"
+    STAGES = STAGES
 
     def __init__(self, path, doc, out_dir, comm, fresh):
         self.c = box_settings(doc)
-        self.run_cfg = run_settings(doc)
-        self.path, self.doc, self.comm = path, doc, comm
-        self.t_start = _time.perf_counter()
-        self.out = prepare_output(comm, out_dir)
-        self.scene_text = Path(path).read_text()
-        self.loop = RunLoop(comm, self.out, self.run_cfg, path, self.scene_text)
-        self.state = {"stage": 0, "started": False, "stage_t0": 0.0, "next_gid": 0, "load_start": None,
-                      "recorder": None, "stages": []}
-        self.tables, self.meta = empty_tables(), None
-        resume = resume_point(comm, self.loop.ckdir, fresh)
-        if resume is not None:
-            self.tables, self.meta = read_checkpoint(resume)
-            if self.meta.get("scene_file") != self.scene_text or "box_test" not in self.meta:
-                raise CheckpointError(resume, "cannot continue this scene from it: it was written for another scene file")
-            self.state = self.meta["box_test"]
-            k = self.state["stage"]
-            self.loop.log(f"resuming from {resume} at step {self.meta['step']} (stage "
-                          f"{STAGES[k] if k < len(STAGES) else 'none left'}, t = {self.meta['time']:.6e} s, "
-                          f"written by pdem {self.meta.get('pdem_version')})")
-            self.loop.last_ckpt_step = int(self.meta["step"])
-        restart = int(self.meta["step"]) if self.meta else None
+        self.recorder = None
+        super().__init__(path, doc, out_dir, comm, fresh)
+
+    def initial_state(self):
+        return {"load_start": None, "recorder": None}
+
+    def checkpoint_state(self):
+        return {**self.state, "recorder": self.recorder.state() if self.recorder else None}
+
+    def open_outputs(self):
+        restart, comm = self.restart_step, self.comm
         self.results = self.out / "results.h5"
-        self.prep = TimeSeriesWriter(self.out / "preparation.h5", PREP_SERIES, every=10, comm=comm,
-                                     append=restart is not None, restart_step=restart)
-        self.series = TimeSeriesWriter(self.results, LOAD_SERIES, every=10, comm=comm, append=restart is not None,
-                                       restart_step=restart)
+        self.prep = series_writer(self.out / "preparation.h5", PREPARATION_SERIES, comm, restart_step=restart)
+        self.series = series_writer(self.results, BOX_TEST_SERIES, comm, restart_step=restart)
         self.loop.flush += [self.prep, self.series]
-        every = self.run_cfg["snapshot_every"]
-        self.snaps = (SnapshotWriter(self.out, comm=comm, append=restart is not None, restart_step=restart,
-                                     log=lambda m: print(m, flush=True)) if every else None)
         if comm.rank == 0:
+            doc = self.doc
             write_root_attrs(self.results, {k: doc[k] for k in ("simulation", "materials", "box_test") if k in doc},
                              "box_test")
-        self.recorder = None
-        self.timers = Timers()  # one timing table for the whole run
-        self.loop.extra_meta = lambda: {"box_test": {**self.state, "recorder": self.recorder.state()
-                                                     if self.recorder else None}}
 
-    def run(self):
-        log = self.loop.log
-        log(f"pdem {__version__}: box test {self.path} on {self.comm.size} rank(s); stages {', '.join(STAGES)}")
-        sim = None
-        while self.state["stage"] < len(STAGES):
-            stage = STAGES[self.state["stage"]]
-            wall0 = _time.perf_counter()
-            sim, scene = self.build_stage(stage)
-            on_step, until, every, t_end = self.program(stage, sim, scene)
-            eta_step = sim.step + int(max(t_end - sim.time, 0.0) / max(sim.dt, 1e-300))
-            n_steps = 0 if stage == "vibrate" and self.c["vibration_time"] == 0 else 10**15  # until() ends it
-            if self.loop.advance(sim, n_steps, on_step=on_step, until=until, until_every=every,
-                                 last_step=eta_step) == "signal":
-                break
-            self.end_stage(stage, sim, wall0)
+    def close_outputs(self):
         self.prep.close()
         self.series.close()
-        if sim is None:
-            log(f"the run in {self.out} is complete (its newest checkpoint is after the last stage); nothing to run "
-                "(--fresh starts over)")
-        elif self.loop.status == 0 and self.comm.rank == 0:
-            finish(self.out, self.results, sim, self.state, self.c, self.path, self.comm.size,
-                   _time.perf_counter() - self.t_start)
-        self.loop.close()
-        return self.loop.status
 
-    def build_stage(self, stage):
-        """The simulation of ``stage`` from the global tables (opening operations applied unless
-        the stage was already running in the checkpoint)."""
-        state, meta, c = self.state, self.meta, self.c
-        mid_stage = state["started"]
-        note = ""
-        if not mid_stage:
-            self.tables, note = start_stage(self.doc, c, stage, self.tables, state, float(meta["time"]) if meta else 0.0)
-        tables = self.tables
-        center = tables["boxes"]["center"][0] if "boxes" in tables else None
-        scene = stage_scene(self.doc, c, stage, tables, state["load_start"], center)
-        sim = scene.build(self.comm)
-        sim.timers = self.timers
-        sim.load_state(tables)
-        self.tables = None
-        if meta:
-            sim.step, sim.time = int(meta["step"]), float(meta["time"])
-            sim.n_rebuilds = int(meta.get("n_rebuilds", sim.n_rebuilds))
-        if mid_stage:  # continue exactly: the Δt and energy reference of the checkpoint
-            sim.dt = float(meta["dt"])
-            ref = meta.get("energy_reference")
-            sim.energy_reference = None if ref is None else [float(x) for x in ref]
-        else:
-            sim.update_dt(force=True)
+    def open_stage(self, stage, tables):
+        c, doc, state = self.c, self.doc, self.state
+        lx, ly, _ = c["box"]
+        h1, h2 = c["cut_height"], c["height"]
+        if stage == "pour":
+            tables = add_cloud(empty_tables(), doc, c, (0.0, 0.0), (lx, ly), 0.0, lx * ly * h1, c["seed"], 0)
+            return tables, f"poured {len(tables['particles']['gid'])} spheres"
+        if stage == "refill":
+            tables, removed = remove_above(tables, h1)
+            center, half = sleeper_geometry(c, h1)
+            x0, x1 = center[0] - half[0], center[0] + half[0]
+            gid = state["next_gid"]
+            n0 = len(tables["particles"]["gid"])
+            for k, (a, b) in enumerate(((0.0, x0), (x1, lx))):
+                if b - a <= 0:
+                    continue
+                tables = add_cloud(tables, doc, c, (a, 0.0), (b, ly), h1, (b - a) * ly * (h2 - h1), c["seed"] + 1000 + k,
+                                   gid)
+                gid = int(tables["particles"]["gid"].max()) + 1
+            return tables, (f"removed {removed} spheres above {h1} m, placed the sleeper, poured "
+                            f"{len(tables['particles']['gid']) - n0} spheres beside it")
         if stage == "vibrate":
+            tables, removed = remove_above(tables, h2)
+            return tables, f"removed {removed} spheres above {h2} m"
+        if stage == "load":
+            state["load_start"] = float(self.meta["time"]) if self.meta else 0.0
+        return tables, ""
+
+    def stage_scene(self, stage, tables):
+        center = tables["boxes"]["center"][0] if "boxes" in tables else None
+        return stage_scene(self.doc, self.c, stage, tables, self.state["load_start"], center)
+
+    def prepare(self, stage, sim, scene, mid_stage):
+        if stage == "vibrate":
+            c = self.c
             sim.set_friction_scale(c["vibration_friction_factor"])
-            sim.gravity = np.asarray(scene.settings["gravity"], np.float64) + shaking(c, sim.time - state["stage_t0"])
-        n_total = self.comm.allreduce_sum_int(sim.particles.n_local)
-        self.loop.log(f"stage {stage}{' (resumed)' if mid_stage else ''}: {n_total} spheres, t = {sim.time:.4f} s, "
-                      f"dt = {sim.dt:.3e} s{'; ' + note if note else ''}")
-        return sim, scene
+            sim.gravity = np.asarray(scene.settings["gravity"], np.float64) + shaking(c, sim.time - self.state["stage_t0"])
+
+    def max_steps(self, stage):
+        return 0 if stage == "vibrate" and self.c["vibration_time"] == 0 else 10**15
 
     def program(self, stage, sim, scene):
-        """(on_step, until, until_every, t_end) of ``stage``: what is recorded after each step and
-        when the stage ends."""
         c, state, run = self.c, self.state, self.run_cfg
         t0 = state["stage_t0"]
         if stage == "load":
@@ -400,7 +309,7 @@ class BoxTestRun:
                 done = rec.sample_box(sim, 0)
                 if done is not None:
                     done["step"] = sim.step
-                    write_table(self.results, "cycles", cycle_columns(rec), CYCLE_UNITS, comm=self.comm)
+                    write_cycles(self.results, cycle_columns(rec), self.comm)
                     self.loop.log(f"cycle {done['cycle'] + 1}/{c['cycles']}: settlement start "
                                   f"{1e3 * done['settlement_start']:.3f} mm, peak {1e3 * done['settlement_peak']:.3f} mm, "
                                   f"end {1e3 * done['settlement_end']:.3f} mm; ballast force {done['force_min']:.1f} .. "
@@ -440,9 +349,8 @@ class BoxTestRun:
         if self.snaps is not None and (sim.step % every == 0) != stage_end:
             write_snapshot(self.snaps, sim)
 
-    def end_stage(self, stage, sim, wall0):
-        """Log and record the stage, write its checkpoint and read it back for the next stage."""
-        c, state, log = self.c, self.state, self.loop.log
+    def close_stage(self, stage, sim):
+        c, log = self.c, self.loop.log
         ratio = observables.unbalanced_force(sim)
         if stage in ("pour", "refill", "settle") and ratio >= c["settle_ratio"]:
             log(f"warning: stage {stage} reached settle_max_time = {c['settle_max_time']} s with unbalanced force "
@@ -451,11 +359,6 @@ class BoxTestRun:
             sim.set_friction_scale(1.0)
         top = observables.bed_top(sim)
         sleeper = sim.boxes.center[0, 2] if sim.boxes is not None else None
-        state["stages"].append({"stage": stage, "t_start": state["stage_t0"], "t_end": sim.time, "step_end": sim.step,
-                                "spheres": self.comm.allreduce_sum_int(sim.particles.n_local),
-                                "unbalanced_force": ratio, "bed_top": top,
-                                "sleeper_z": None if sleeper is None else float(sleeper),
-                                "wall_s": _time.perf_counter() - wall0})
         log(f"stage {stage} done at t = {sim.time:.4f} s, step {sim.step}: unbalanced force ratio {ratio:.3g}, "
             f"bed top {top:.4f} m" + ("" if sleeper is None else f", sleeper bottom {sleeper - sim.boxes.half[0, 2]:.4f} m"))
         self.snapshot(sim, stage_end=True)
@@ -463,10 +366,12 @@ class BoxTestRun:
             self.prep.append(prep_sample(sim, stage))
         if stage == "settle":  # the first row of the load record: the sleeper where cycling starts
             self.series.append(load_sample(sim, sim.boxes.center[0], load=c["f_min"]))
-        state.update(stage=state["stage"] + 1, started=False)
-        written = self.loop.checkpoint(sim, f"end of stage {stage}")
-        if state["stage"] < len(STAGES):
-            self.tables, self.meta = read_checkpoint(written)
+
+    def stage_record(self, stage, sim):
+        return {"sleeper_z": None if sim.boxes is None else float(sim.boxes.center[0, 2])}
+
+    def finish(self, sim, wall_s):
+        finish(self.out, self.results, sim, self.state, self.c, self.path, self.comm.size, wall_s)
 
 
 def plot_preparation(h5_path, png_path):
@@ -491,7 +396,8 @@ def plot_preparation(h5_path, png_path):
 
 
 def finish(out, results, sim, state, c, path, ranks, wall_s):
-    """Rank 0 at the end: plots, the analysis of the cycles and summary.txt (with timing)."""
+    """Rank 0 at the end: plots, the analysis of the cycles and summary.txt (with timing): the
+    scene's finishing step calls the analysis entry point `analysis.__main__.main`."""
     from analysis.__main__ import main as analysis_main
 
     plot_preparation(out / "preparation.h5", out / "preparation.png")

@@ -1,0 +1,346 @@
+"""Contact geometry of each contact kind, exactly as Yade 2023.02a computes it (YADE_MODEL.md §3).
+
+One class per geometry, holding njit-inline functions with scalar results that the generated pair
+loop (`pdem.contact.loops`) calls; a geometry knows nothing of forces (that is the law's,
+`pdem.contact.linear` and its siblings). For the candidate row (i, j) of a contact list:
+
+``contact(fresh, i, j, pos, radius, other_f, other_i) -> (status, nx, ny, nz, pen)``
+    Ig2: `SKIP` (no contact and none before: the row is clear, nothing to do), `OPEN` (a
+    contact that opened: Law2 deletes it) or `CONTACT` with the unit normal n (from body 1 to
+    body 2) and the overlap pen [m].
+``ip2_args(i, j, radius, material, mass, other_i) -> (mat1, mat2, r1, r2, m1, m2)``
+    what Ip2 sees at creation: the materials of body 1 and 2 in Yade's order (a wall or facet
+    is body 1), the reference radii (sphere: r; wall: r and r; facet: 2r and r) and the masses
+    [kg] (inf for a boundary).
+``spins(i, j, angvel) -> (ω1+ω2, ω2−ω1)`` [rad/s]: for the twist of ScGeom::precompute and for
+    rolling laws.
+``relative_velocity(i, j, nx, ny, nz, pen, pos, vel, angvel, radius, other_f)`` [m/s]: of body 2
+    with respect to body 1 at the contact, before the normal part is removed (sphere–sphere,
+    wall and box: Yade's avoidGranularRatcheting with full-radius levers and the factor
+    α = (r1+r2)/(r1+r2−pen); facet: at the contact point, no ratcheting correction).
+``levers(i, j, pen, radius) -> (l1, l2)`` [m]: torque lever arms r − pen/2 (Law2's
+    sphericalBodies branch; the facet's body-1 radius is 2r but only the sphere's lever is used).
+``TWO_PARTICLES``: body 1 is a particle (its row gets +f and torque_i, body 2 torque_j);
+    otherwise body 1 is a boundary and the row holds the force on the sphere (−f) and its torque.
+
+Boundary rows (``other_f``, ``other_i``, one row per wall, facet or box) are laid out by the
+containers: `pdem.walls.Walls` (f: position, velocity; i: axis, sense, material),
+`pdem.facets.Facets` (f: FACET_COLUMNS of geometry, velocity; i: material) and
+`pdem.boxes.Boxes` (f: centre, half extents, velocity; i: material).
+
+Every 3-vector product follows Yade's Eigen evaluation order (`pdem.vec`), so results are
+bit-identical to Yade's. Imports numba and `pdem.vec` only.
+"""
+from math import inf, sqrt
+
+from numba import njit
+
+from ..vec import cross3, dot3
+
+SKIP = 0
+OPEN = 1
+CONTACT = 2
+
+
+# ---------------------------------------------------------------------------- shared pieces
+@njit(inline="always", cache=True)
+def _boundary_ip2(s, b, radius, material, mass, other_i, material_col, radius_factor):
+    r = radius[s]
+    return other_i[b, material_col], material[s], radius_factor * r, r, inf, mass[s]
+
+
+@njit(inline="always", cache=True)
+def _sphere_spins(s, b, angvel):
+    wx = angvel[s, 0]
+    wy = angvel[s, 1]
+    wz = angvel[s, 2]
+    return wx, wy, wz, wx, wy, wz
+
+
+@njit(inline="always", cache=True)
+def _sphere_lever(s, b, pen, radius):
+    lever = radius[s] - 0.5 * pen
+    return lever, lever
+
+
+@njit(inline="always", cache=True)
+def _flat_relative_velocity(s, nx, ny, nz, pen, vel, angvel, radius, bvx, bvy, bvz):
+    """A sphere on a flat boundary moving at (bvx, bvy, bvz): ratcheting factor with both
+    reference radii r (Ig2_Wall_Sphere_ScGeom)."""
+    r = radius[s]
+    rs = r + r
+    alpha = rs / (rs - pen)
+    ax = (vel[s, 0] - bvx) * alpha
+    ay = (vel[s, 1] - bvy) * alpha
+    az = (vel[s, 2] - bvz) * alpha
+    bx, by, bz = cross3(angvel[s, 0], angvel[s, 1], angvel[s, 2], (-r) * nx, (-r) * ny, (-r) * nz)
+    return ax + bx, ay + by, az + bz
+
+
+# ---------------------------------------------------------------------------- sphere–sphere
+@njit(inline="always", cache=True)
+def _ss_contact(fresh, i, j, pos, radius, other_f, other_i):
+    dx = pos[j, 0] - pos[i, 0]
+    dy = pos[j, 1] - pos[i, 1]
+    dz = pos[j, 2] - pos[i, 2]
+    d2 = dot3(dx, dy, dz, dx, dy, dz)
+    rs = radius[i] + radius[j]
+    if fresh and rs * rs - d2 < 0.0:
+        return SKIP, 0.0, 0.0, 0.0, 0.0
+    dist = sqrt(d2)
+    pen = rs - dist
+    if pen < 0.0:
+        return OPEN, 0.0, 0.0, 0.0, pen
+    return CONTACT, dx / dist, dy / dist, dz / dist, pen
+
+
+@njit(inline="always", cache=True)
+def _ss_ip2(i, j, radius, material, mass, other_i):
+    return material[i], material[j], radius[i], radius[j], mass[i], mass[j]
+
+
+@njit(inline="always", cache=True)
+def _ss_spins(i, j, angvel):
+    return (angvel[i, 0] + angvel[j, 0], angvel[i, 1] + angvel[j, 1], angvel[i, 2] + angvel[j, 2],
+            angvel[j, 0] - angvel[i, 0], angvel[j, 1] - angvel[i, 1], angvel[j, 2] - angvel[i, 2])
+
+
+@njit(inline="always", cache=True)
+def _ss_relative_velocity(i, j, nx, ny, nz, pen, pos, vel, angvel, radius, other_f):
+    r1 = radius[i]
+    r2 = radius[j]
+    rs = r1 + r2
+    alpha = rs / (rs - pen)
+    ax = (vel[j, 0] - vel[i, 0]) * alpha
+    ay = (vel[j, 1] - vel[i, 1]) * alpha
+    az = (vel[j, 2] - vel[i, 2]) * alpha
+    bx, by, bz = cross3(angvel[j, 0], angvel[j, 1], angvel[j, 2], (-r2) * nx, (-r2) * ny, (-r2) * nz)
+    cx, cy, cz = cross3(angvel[i, 0], angvel[i, 1], angvel[i, 2], r1 * nx, r1 * ny, r1 * nz)
+    return ax + bx - cx, ay + by - cy, az + bz - cz
+
+
+@njit(inline="always", cache=True)
+def _ss_levers(i, j, pen, radius):
+    return radius[i] - 0.5 * pen, radius[j] - 0.5 * pen
+
+
+class SphereSphere:
+    """Ig2_Sphere_Sphere_ScGeom (interactionDetectionFactor 1, noRatch)."""
+
+    name = "sphere_sphere"
+    TWO_PARTICLES = True
+    contact = _ss_contact
+    ip2_args = _ss_ip2
+    spins = _ss_spins
+    relative_velocity = _ss_relative_velocity
+    levers = _ss_levers
+
+
+# ---------------------------------------------------------------------------- sphere–wall
+@njit(inline="always", cache=True)
+def _wall_contact(fresh, s, w, pos, radius, other_f, other_i):
+    a = other_i[w, 0]
+    r = radius[s]
+    dist = pos[s, a] - other_f[w, 0]
+    if fresh and abs(dist) > r:
+        return SKIP, 0.0, 0.0, 0.0, 0.0
+    pen = -(abs(dist) - r)
+    if pen < 0.0:
+        return OPEN, 0.0, 0.0, 0.0, pen
+    sense = other_i[w, 1]
+    sign = (1.0 if dist > 0.0 else -1.0) if sense == 0 else (1.0 if sense == 1 else -1.0)
+    return (CONTACT, sign if a == 0 else 0.0, sign if a == 1 else 0.0, sign if a == 2 else 0.0, pen)
+
+
+@njit(inline="always", cache=True)
+def _wall_ip2(s, w, radius, material, mass, other_i):
+    return _boundary_ip2(s, w, radius, material, mass, other_i, 2, 1.0)
+
+
+@njit(inline="always", cache=True)
+def _wall_relative_velocity(s, w, nx, ny, nz, pen, pos, vel, angvel, radius, other_f):
+    return _flat_relative_velocity(s, nx, ny, nz, pen, vel, angvel, radius, other_f[w, 1], other_f[w, 2],
+                                   other_f[w, 3])
+
+
+class SphereWall:
+    """Ig2_Wall_Sphere_ScGeom: an infinite axis-aligned plane is body 1; contact point on the
+    plane, radius1 = radius2 = r."""
+
+    name = "sphere_wall"
+    TWO_PARTICLES = False
+    contact = _wall_contact
+    ip2_args = _wall_ip2
+    spins = _sphere_spins
+    relative_velocity = _wall_relative_velocity
+    levers = _sphere_lever
+
+
+# ---------------------------------------------------------------------------- sphere–facet
+@njit(inline="always", cache=True)
+def _facet_contact(fresh, s, f, pos, radius, other_f, other_i):
+    """Face, edge and vertex contact of Ig2_Facet_Sphere_ScGeom (facet rows: `pdem.facets`:
+    centre c at 0, normal at 3, edge normals ne_k at 6 + 3k, icr at 15, vertex unit vectors
+    vu_k at 16 + 3k, their lengths vl_k at 25 + k)."""
+    g = other_f
+    r = radius[s]
+    clx = pos[s, 0] - g[f, 0]
+    cly = pos[s, 1] - g[f, 1]
+    clz = pos[s, 2] - g[f, 2]
+    nfx = g[f, 3]
+    nfy = g[f, 4]
+    nfz = g[f, 5]
+    big_l = dot3(nfx, nfy, nfz, clx, cly, clz)
+    if big_l < 0.0:
+        nfx = -nfx
+        nfy = -nfy
+        nfz = -nfz
+        big_l = -big_l
+    if fresh and big_l > r:
+        return SKIP, 0.0, 0.0, 0.0, 0.0
+    cpx = clx - big_l * nfx
+    cpy = cly - big_l * nfy
+    cpz = clz - big_l * nfz
+    bm = dot3(g[f, 6], g[f, 7], g[f, 8], cpx, cpy, cpz)
+    m = 0
+    for k in range(1, 3):
+        q = dot3(g[f, 6 + 3 * k], g[f, 7 + 3 * k], g[f, 8 + 3 * k], cpx, cpy, cpz)
+        if q > bm:
+            bm = q
+            m = k
+    icr = g[f, 15]
+    if bm < icr:
+        pen = r - big_l
+        nn = sqrt(dot3(nfx, nfy, nfz, nfx, nfy, nfz))
+        nx = nfx / nn
+        ny = nfy / nn
+        nz = nfz / nn
+    else:
+        cpx = cpx + g[f, 6 + 3 * m] * (icr - bm)
+        cpy = cpy + g[f, 7 + 3 * m] * (icr - bm)
+        cpz = cpz + g[f, 8 + 3 * m] * (icr - bm)
+        mp = 2 if m - 1 < 0 else m - 1
+        if dot3(cpx, cpy, cpz, g[f, 6 + 3 * mp], g[f, 7 + 3 * mp], g[f, 8 + 3 * mp]) > icr:
+            cpx = g[f, 16 + 3 * m] * g[f, 25 + m]
+            cpy = g[f, 17 + 3 * m] * g[f, 25 + m]
+            cpz = g[f, 18 + 3 * m] * g[f, 25 + m]
+        else:
+            m = 0 if m + 1 > 2 else m + 1
+            if dot3(cpx, cpy, cpz, g[f, 6 + 3 * m], g[f, 7 + 3 * m], g[f, 8 + 3 * m]) > icr:
+                cpx = g[f, 16 + 3 * m] * g[f, 25 + m]
+                cpy = g[f, 17 + 3 * m] * g[f, 25 + m]
+                cpz = g[f, 18 + 3 * m] * g[f, 25 + m]
+        nx = clx - cpx
+        ny = cly - cpy
+        nz = clz - cpz
+        nn = sqrt(dot3(nx, ny, nz, nx, ny, nz))
+        nx /= nn
+        ny /= nn
+        nz /= nn
+        pen = r - nn
+    if fresh and not pen > 0.0:
+        return SKIP, 0.0, 0.0, 0.0, 0.0
+    if pen < 0.0:  # a real contact that opened: Law2 deletes it
+        return OPEN, 0.0, 0.0, 0.0, pen
+    return CONTACT, nx, ny, nz, pen
+
+
+@njit(inline="always", cache=True)
+def _facet_ip2(s, f, radius, material, mass, other_i):
+    return _boundary_ip2(s, f, radius, material, mass, other_i, 0, 2.0)
+
+
+@njit(inline="always", cache=True)
+def _facet_relative_velocity(s, f, nx, ny, nz, pen, pos, vel, angvel, radius, other_f):
+    lever = radius[s] - 0.5 * pen
+    # contact point x2 - (r - pen/2) n, then its offset from the sphere centre (Yade's order)
+    c2x = (pos[s, 0] - lever * nx) - pos[s, 0]
+    c2y = (pos[s, 1] - lever * ny) - pos[s, 1]
+    c2z = (pos[s, 2] - lever * nz) - pos[s, 2]
+    wx, wy, wz = cross3(angvel[s, 0], angvel[s, 1], angvel[s, 2], c2x, c2y, c2z)
+    return ((vel[s, 0] + wx) - other_f[f, 28], (vel[s, 1] + wy) - other_f[f, 29],
+            (vel[s, 2] + wz) - other_f[f, 30])
+
+
+class SphereFacet:
+    """Ig2_Facet_Sphere_ScGeom: a triangle is body 1 (radius1 = 2r), no ratcheting correction."""
+
+    name = "sphere_facet"
+    TWO_PARTICLES = False
+    contact = _facet_contact
+    ip2_args = _facet_ip2
+    spins = _sphere_spins
+    relative_velocity = _facet_relative_velocity
+    levers = _sphere_lever
+
+
+# ---------------------------------------------------------------------------- sphere–box
+@njit(inline="always", cache=True)
+def _box_contact(fresh, s, b, pos, radius, other_f, other_i):
+    """Closest point q of the box to the centre x (clamp per axis); outside: n = (x − q)/|x − q|,
+    pen = r − |x − q| (face, edge or corner); centre inside: out through the nearest face,
+    n = ±e_a, pen = r + (h_a − |x_a − c_a|) (ties: x before y before z)."""
+    r = radius[s]
+    dx = pos[s, 0] - other_f[b, 0]
+    dy = pos[s, 1] - other_f[b, 1]
+    dz = pos[s, 2] - other_f[b, 2]
+    hx = other_f[b, 3]
+    hy = other_f[b, 4]
+    hz = other_f[b, 5]
+    ex = dx - min(max(dx, -hx), hx)
+    ey = dy - min(max(dy, -hy), hy)
+    ez = dz - min(max(dz, -hz), hz)
+    if ex != 0.0 or ey != 0.0 or ez != 0.0:
+        dist = sqrt(dot3(ex, ey, ez, ex, ey, ez))
+        if fresh and dist > r:
+            return SKIP, 0.0, 0.0, 0.0, 0.0
+        nx = ex / dist
+        ny = ey / dist
+        nz = ez / dist
+        pen = r - dist
+    else:
+        gx = hx - abs(dx)
+        gy = hy - abs(dy)
+        gz = hz - abs(dz)
+        nx = 0.0
+        ny = 0.0
+        nz = 0.0
+        if gx <= gy and gx <= gz:
+            nx = 1.0 if dx >= 0.0 else -1.0
+            pen = r + gx
+        elif gy <= gz:
+            ny = 1.0 if dy >= 0.0 else -1.0
+            pen = r + gy
+        else:
+            nz = 1.0 if dz >= 0.0 else -1.0
+            pen = r + gz
+    if pen < 0.0:
+        return OPEN, 0.0, 0.0, 0.0, pen
+    return CONTACT, nx, ny, nz, pen
+
+
+@njit(inline="always", cache=True)
+def _box_ip2(s, b, radius, material, mass, other_i):
+    return _boundary_ip2(s, b, radius, material, mass, other_i, 0, 1.0)
+
+
+@njit(inline="always", cache=True)
+def _box_relative_velocity(s, b, nx, ny, nz, pen, pos, vel, angvel, radius, other_f):
+    return _flat_relative_velocity(s, nx, ny, nz, pen, vel, angvel, radius, other_f[b, 6], other_f[b, 7],
+                                   other_f[b, 8])
+
+
+class SphereBox:
+    """A sphere on an axis-aligned rigid box (body 1, translating, never rotating): parameters
+    and relative velocity as for a wall (radius1 = radius2 = r, ratcheting factor)."""
+
+    name = "sphere_box"
+    TWO_PARTICLES = False
+    contact = _box_contact
+    ip2_args = _box_ip2
+    spins = _sphere_spins
+    relative_velocity = _box_relative_velocity
+    levers = _sphere_lever
+
+
+GEOMETRIES = {g.name: g for g in (SphereSphere, SphereWall, SphereFacet, SphereBox)}

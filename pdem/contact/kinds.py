@@ -1,0 +1,161 @@
+"""Contact kinds: the table of the kinds of contact a scene has, one entry per kind.
+
+A kind binds a geometry (`pdem.contact.geometry`) to the bodies it concerns, its `ContactList`
+(candidate rows with parameters and history), its candidate search at neighbour rebuilds, its
+generated force loop (`pdem.contact.loops`, geometry × the scene's law) and the per-body sums
+(`pdem.forces`). Everything that walks over contacts (the step, the time step, diagnostics,
+observables, migration between slabs, checkpoints) iterates `Simulation.kinds`, so a new kind is
+one class here and one line in `make_kinds`.
+
+Order of `make_kinds` (sphere pairs, walls, facets, boxes) is the order in which each body's
+force is summed: partners by gid, then walls, facets and boxes by index (`pdem.forces`).
+Checkpoint tables are named ``contacts/<kind name>``.
+"""
+import numpy as np
+
+from .. import forces, neighbors
+from ..contacts import KEY_SHIFT_SPHERE, ContactList, index_pair_keys, sphere_pair_keys
+from .geometry import SphereBox, SphereFacet, SphereSphere, SphereWall
+from .loops import NORMAL_COLUMNS, make_pair_loop
+
+_NO_ROWS_F = np.zeros((0, 1))
+_NO_ROWS_I = np.zeros((0, 1), np.int64)
+
+
+class ContactKind:
+    """One kind of contact. ``ptr``/``rows``: per owned body (CSR), its contact rows in the
+    order its force is summed."""
+
+    sphere_pair = False  # key = gid_i << 32 | gid_j (else gid << 20 | boundary index)
+    boundary = None  # the Walls, Facets or Boxes container
+
+    def __init__(self, geometry, law):
+        self.name = geometry.name
+        self.geometry = geometry
+        self.law = law
+        self.contacts = ContactList(law.N_PARAMS + 1, law.HISTORY + NORMAL_COLUMNS)
+        self.loop = make_pair_loop(geometry, law)
+        self.ptr = np.zeros(1, np.int64)
+        self.rows = np.zeros(0, np.int64)
+
+    @property
+    def normal_column(self):
+        """First history column of the contact normal (the geometry's columns follow the law's)."""
+        return self.law.HISTORY
+
+    def compute(self, sim):
+        """Run the force loop over every candidate row."""
+        p, c = sim.particles, self.contacts
+        other_f, other_i = self.kernel_arrays()
+        self.loop(c.n, c.i, c.j, c.state, c.params, c.history, c.force, c.torque_i, c.torque_j, c.overlap, p.pos,
+                  p.vel, p.angvel, p.radius, p.material, p.mass, sim.props, other_f, other_i, sim.dt, sim.step)
+
+    def owned_rows(self, n_local):
+        """Real contact rows counted by this rank (each contact once over all ranks)."""
+        return self.contacts.real_rows()
+
+    def body_rows(self, rows):
+        """Rows of the particles in the contact rows ``rows`` (one array per particle side)."""
+        return (self.contacts.i[rows],)
+
+    def min_radius(self, radius, rows):
+        """Smaller particle radius of each contact row [m]."""
+        return radius[self.contacts.i[rows]]
+
+    def other_name(self, gid, row):
+        """How a message names the second body of contact row ``row``."""
+        return f"{self.name.split('_', 1)[1]} {int(self.contacts.j[row])}"
+
+
+class SpherePairs(ContactKind):
+    sphere_pair = True
+
+    def __init__(self, law):
+        super().__init__(SphereSphere, law)
+        self.first = np.zeros(0, np.int8)
+
+    def rebuild(self, sim, cell):
+        p = sim.particles
+        pi, pj = neighbors.build_sphere_pairs(p.pos, p.radius, p.gid, p.n_local, p.n_total, sim.skin, cell,
+                                              8 * p.n_total + 1000)
+        self.contacts.replace(pi, pj, sphere_pair_keys(pi, pj, p.gid), key_shift=KEY_SHIFT_SPHERE)
+        c = self.contacts
+        self.ptr, self.rows, self.first = neighbors.build_incidence(p.n_local, c.n, c.i, c.j, p.gid)
+
+    def kernel_arrays(self):
+        return _NO_ROWS_F, _NO_ROWS_I
+
+    def add_forces(self, sim):
+        """Sets (not adds) every owned body's force and torque: the first sum of a step."""
+        p, c = sim.particles, self.contacts
+        forces.sum_sphere_pairs(p.n_local, self.ptr, self.rows, self.first, c.force, c.torque_i, c.torque_j,
+                                p.force, p.torque)
+
+    def owned_rows(self, n_local):
+        rows = self.contacts.real_rows()
+        return rows[self.contacts.i[rows] < n_local]
+
+    def body_rows(self, rows):
+        return self.contacts.i[rows], self.contacts.j[rows]
+
+    def min_radius(self, radius, rows):
+        return np.minimum(radius[self.contacts.i[rows]], radius[self.contacts.j[rows]])
+
+    def other_name(self, gid, row):
+        return str(int(gid[self.contacts.j[row]]))
+
+
+class BoundaryContacts(ContactKind):
+    """Spheres against replicated boundaries (walls, facets, boxes): candidates per owned sphere
+    in boundary index order; the row holds the force on the sphere."""
+
+    def __init__(self, geometry, law, boundary, candidates):
+        super().__init__(geometry, law)
+        self.boundary = boundary
+        self._candidates = candidates
+
+    def rebuild(self, sim, cell):
+        p = sim.particles
+        self.ptr, ps, pb = self._candidates(p.pos, p.radius, p.n_local, sim.skin, *self.boundary.search_arrays())
+        self.contacts.replace(ps, pb, index_pair_keys(ps, pb, p.gid))
+        self.rows = np.arange(len(ps), dtype=np.int64)
+
+    def kernel_arrays(self):
+        return self.boundary.kernel_f, self.boundary.kernel_i
+
+    def add_forces(self, sim):
+        p, c = sim.particles, self.contacts
+        forces.add_sphere_contacts(p.n_local, self.ptr, c.force, c.torque_i, p.force, p.torque)
+
+    def totals(self, comm):
+        """[n_boundaries, 3] total force of the spheres on each boundary [N]: an exact sum over the
+        contact rows of all ranks (each contact is held by the owner of its sphere), so every
+        rank gets the same bits whatever the rank count."""
+        nb = len(self.boundary)
+        rows = self.contacts.real_rows()
+        vals = np.zeros((len(rows), 3 * nb))
+        cols = 3 * self.contacts.j[rows][:, None] + np.arange(3)[None, :]
+        vals[np.arange(len(rows))[:, None], cols] = -self.contacts.force[rows]
+        return np.asarray(comm.exact_sum_rows(vals), np.float64).reshape(nb, 3)
+
+    def stiffness_totals(self, comm):
+        """[n_boundaries] Σ (k_n + k_s) over each boundary's real contacts, summed exactly over all
+        ranks [N/m]."""
+        nb = len(self.boundary)
+        rows = self.contacts.real_rows()
+        kn, ks = self.law.stiffness(self.contacts.params[rows], self.contacts.history[rows], self.contacts.overlap[rows])
+        vals = np.zeros((len(rows), nb))
+        vals[np.arange(len(rows)), self.contacts.j[rows]] = kn + ks
+        return np.asarray(comm.exact_sum_rows(vals), np.float64).reshape(nb)
+
+
+def make_kinds(law, walls, facets, boxes):
+    """The contact kinds of a scene with these boundaries (only those it has), in summation order."""
+    kinds = [SpherePairs(law)]
+    if len(walls):
+        kinds.append(BoundaryContacts(SphereWall, law, walls, neighbors.build_wall_candidates))
+    if len(facets):
+        kinds.append(BoundaryContacts(SphereFacet, law, facets, neighbors.build_facet_candidates))
+    if len(boxes):
+        kinds.append(BoundaryContacts(SphereBox, law, boxes, neighbors.build_box_candidates))
+    return kinds

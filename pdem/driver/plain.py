@@ -1,0 +1,112 @@
+"""A plain run of a scene file: the scene as declared, for run.steps steps, with output.
+
+`run_scene_file(path, out_dir)` runs on every rank. It writes to `out_dir`: ``results.h5``
+(`analysis.schema`, kind from run.kind: /series of time, energies, contacts, unbalanced force,
+floor force), ``snapshots.h5``/``.xmf`` if the scene asks, checkpoints in ``checkpoints/``
+(`pdem.driver.runloop.RunLoop`; always one at the end), ``results.png`` and ``summary.txt``
+with the timing table. Started again on the same directory, a run resumes from the newest
+valid checkpoint and appends to its results; ``fresh`` removes the old checkpoints first.
+"""
+import time as _time
+from pathlib import Path
+
+from analysis.schema import RUN_SERIES
+
+from .. import __version__
+from ..config import run_settings, scene_from_dict
+from ..io.checkpoint import CheckpointError, read_checkpoint
+from ..io.snapshots import SnapshotWriter
+from . import observables
+from .plots import plot_series
+from .results import series_writer, write_root_attrs
+from .runloop import RunLoop, prepare_output, resume_point
+
+
+def sample(sim):
+    e = sim.energy()
+    wf = observables.wall_forces(sim)
+    return {"step": sim.step, "time": sim.time, "dt": sim.dt, "kinetic_energy": e["kinetic"] + e["rotational"],
+            "elastic_energy": e["elastic"], "contacts_per_particle": sim.contacts_per_particle(),
+            "unbalanced_force": observables.unbalanced_force(sim), "bed_top": observables.bed_top(sim),
+            "floor_force_z": float(wf[0, 2]) if len(wf) else 0.0}
+
+
+def run_scene_file(path, doc, out_dir, comm, steps=None, fresh=False):
+    """Run the parsed scene file ``doc`` on ``comm``'s ranks; returns the exit status.
+
+    ``steps`` (default run.steps) is the step count of the whole run: if ``out_dir/checkpoints``
+    holds a valid checkpoint (and not ``fresh``), the run resumes from the newest one and
+    continues to that step, appending to the time series and snapshots. Checkpoints are written
+    on the schedule of `RunLoop`, on SIGTERM/SIGUSR1 (then the exit status is
+    EXIT_CHECKPOINTED_ON_SIGNAL) and at the end."""
+    scene, run = scene_from_dict(doc), run_settings(doc)
+    out = prepare_output(comm, out_dir)
+    t_start = _time.perf_counter()
+    loop = RunLoop(comm, out, run, path, Path(path).read_text())
+    resume = resume_point(comm, loop.ckdir, fresh)
+    sim = scene.build(comm)
+    if resume is not None:
+        tables, meta = read_checkpoint(resume)
+        try:
+            sim.restore_checkpoint(tables, meta)
+        except (ValueError, KeyError) as exc:
+            raise CheckpointError(resume, f"cannot continue this scene from it: {exc}") from None
+        del tables
+        loop.log(f"resuming from {resume} at step {sim.step} (t = {sim.time:.6e} s, written by pdem "
+                 f"{meta.get('pdem_version')})")
+        loop.last_ckpt_step = sim.step
+    step0 = sim.step
+    n_total = comm.allreduce_sum_int(sim.particles.n_local)
+    n_steps = run["steps"] if steps is None else steps
+    loop.log(f"pdem {__version__}: {path} on {comm.size} rank(s), {n_total} spheres, {len(sim.walls)} walls, "
+             f"{len(sim.facets)} facets, {n_steps} steps, dt = {sim.dt:.3e} s")
+    results = out / "results.h5"
+    resumed = resume is not None
+    series = series_writer(results, RUN_SERIES, comm, restart_step=sim.step if resumed else None)
+    loop.flush.append(series)
+    if comm.rank == 0:
+        write_root_attrs(results, sim.spec, run["kind"])
+    snaps = (SnapshotWriter(out, comm=comm, append=resumed, restart_step=sim.step if resumed else None,
+                            log=lambda m: print(m, flush=True))
+             if run["snapshot_every"] else None)
+
+    def on_step(sim):
+        if run["output_every"] and sim.step % run["output_every"] == 0:
+            series.append(sample(sim))
+        if snaps and sim.step % run["snapshot_every"] == 0:
+            write_snapshot(snaps, sim)
+
+    if not resumed:
+        series.append(sample(sim))
+        if snaps:
+            write_snapshot(snaps, sim)
+    if sim.step > n_steps:
+        loop.log(f"the checkpoint is at step {sim.step}, beyond the {n_steps} steps asked: nothing to run")
+    loop.advance(sim, n_steps - sim.step, on_step=on_step, last_step=n_steps)
+    if loop.status == 0 and loop.last_ckpt_step != sim.step:
+        loop.checkpoint(sim, "end of run")
+    series.close()
+    loop_s = _time.perf_counter() - loop.wall0
+    if comm.rank == 0:
+        plot_series(results, out / "results.png")
+    last = sample(sim)
+    if comm.rank == 0:
+        rate = n_total * (sim.step - step0) / loop_s if loop_s > 0 else 0.0
+        summary = [f"scene: {path}", f"ranks: {comm.size}", f"spheres: {n_total}", f"steps: {sim.step}",
+                   f"simulated time: {sim.time:.6g} s", f"final dt: {sim.dt:.4g} s",
+                   f"contacts per particle: {last['contacts_per_particle']:.3f}",
+                   f"unbalanced force ratio: {last['unbalanced_force']:.4g}", f"bed top: {last['bed_top']:.5g} m",
+                   f"force on floor z: {last['floor_force_z']:.6g} N", f"loop wall time: {loop_s:.2f} s",
+                   f"throughput: {rate / 1e6:.3f} M particle-steps/s", "", sim.timing_table()]
+        (out / "summary.txt").write_text("\n".join(summary) + "\n")
+        print("\n".join(summary[-2 - sim.timing_table().count('\n'):]), flush=True)
+        print(f"wrote {results}, {out / 'results.png'}, {out / 'summary.txt'}"
+              f"{', snapshots.xmf' if snaps else ''} (total {_time.perf_counter() - t_start:.1f} s)", flush=True)
+    loop.close()
+    return loop.status
+
+
+def write_snapshot(snaps, sim):
+    p = sim.particles
+    nl = p.n_local
+    snaps.write(sim.step, sim.time, p.gid[:nl], p.pos[:nl], p.radius[:nl], p.vel[:nl])

@@ -1,0 +1,178 @@
+"""The run loop around `Simulation.advance`: progress, stop signals, scheduled checkpoints, resume.
+
+`RunLoop` is what every kind of run (plain, staged) does between steps: progress lines (a rich
+progress bar on a terminal, plain lines in a batch log), the stop signal (SIGTERM/SIGUSR1,
+polled collectively every 100 steps: then a checkpoint and exit status 3), scheduled checkpoints
+(run.checkpoint_every steps, run.checkpoint_every_s wall seconds as measured on rank 0, the
+newest run.checkpoint_keep kept) and the checkpoint writer. `resume_point` picks the checkpoint
+a run continues from (the newest valid one; a damaged newer one is reported and skipped).
+"""
+import sys
+import time as _time
+from pathlib import Path
+
+from ..io.checkpoint import CheckpointError, find_resume_checkpoint, list_checkpoints, write_checkpoint
+from ..io.signals import EXIT_CHECKPOINTED_ON_SIGNAL, install_signal_handlers
+
+
+def log(comm, *args):
+    """Print on rank 0."""
+    if comm.rank == 0:
+        print(*args, flush=True)
+
+
+class Progress:
+    """Progress of a run on rank 0: a rich progress bar when stdout is a terminal, else a line
+    every ``every`` steps (batch logs stay plain text)."""
+
+    def __init__(self, comm, every):
+        self.every = every
+        self.bar = None
+        if comm.rank == 0 and every and sys.stdout.isatty():
+            from rich.progress import BarColumn, Progress as RichProgress, TextColumn, TimeRemainingColumn
+
+            self.bar = RichProgress(TextColumn("{task.description}"), BarColumn(), TextColumn("{task.fields[info]}"),
+                                    TimeRemainingColumn(), transient=True)
+            self.bar.start()
+            self.task = self.bar.add_task("steps", total=None, info="")
+
+    def update(self, k, last_step, line):
+        if self.bar is not None:
+            self.bar.update(self.task, completed=k, total=last_step, info=line)
+        else:
+            print(line, flush=True)
+
+    def close(self):
+        if self.bar is not None:
+            self.bar.stop()
+            self.bar = None
+
+
+def resume_point(comm, ckdir, fresh):
+    """(path or None): the checkpoint to resume from; with ``fresh``, old checkpoints are removed.
+
+    Raises CheckpointError (one line) if the directory holds checkpoints but none is valid."""
+    if fresh:
+        if comm.rank == 0:
+            old = list_checkpoints(ckdir)
+            for _, p in old:
+                p.unlink(missing_ok=True)
+            if old:
+                print(f"--fresh: removed {len(old)} old checkpoint(s) from {ckdir}", flush=True)
+        comm.barrier()
+        return None
+    found = find_resume_checkpoint(ckdir, log=lambda m: print(m, flush=True), comm=comm)
+    if found is None and list_checkpoints(ckdir):
+        names = ", ".join(p.name for _, p in list_checkpoints(ckdir))
+        raise CheckpointError(ckdir, f"no valid checkpoint among {names}; "
+                                     "start over with --fresh (or restore a good checkpoint)")
+    return found
+
+
+class RunLoop:
+    """What every kind of run does around `Simulation.advance`: progress lines, the stop signal
+    (SIGTERM/SIGUSR1, polled collectively every 100 steps), scheduled checkpoints (every
+    run.checkpoint_every steps, every run.checkpoint_every_s wall seconds as measured on rank
+    0) and the checkpoint writer itself. ``extra_meta()`` adds the caller's state (e.g. the
+    stage of a box test) to every checkpoint; ``flush`` lists writers whose rows must be on disk
+    before a checkpoint exists."""
+
+    def __init__(self, comm, out, run, scene_path, scene_text):
+        self.comm = comm
+        self.out = Path(out)
+        self.run = run
+        self.scene_path = str(scene_path)
+        self.scene_text = scene_text
+        self.ckdir = self.out / "checkpoints"
+        self.keep = run["checkpoint_keep"] or None  # 0: keep every checkpoint
+        self.stop = install_signal_handlers()
+        self.wall0 = _time.perf_counter()
+        self.last_ckpt_wall = self.wall0
+        self.last_ckpt_step = None
+        self.status = 0
+        self.extra_meta = dict
+        self.flush = []
+
+    def log(self, *args):
+        log(self.comm, *args)
+
+    def checkpoint(self, sim, why):
+        t0 = _time.perf_counter()
+        for w in self.flush:
+            w.flush()
+        tables, meta = sim.checkpoint_tables()
+        meta.update(scene_file=self.scene_text, scene_path=self.scene_path, ranks=self.comm.size,
+                    **self.extra_meta())
+        written = write_checkpoint(self.ckdir, sim.step, tables, meta, self.comm, keep=self.keep)
+        self.last_ckpt_wall = _time.perf_counter()
+        self.last_ckpt_step = sim.step
+        self.log(f"step {sim.step}: checkpoint {written} ({why}, {self.last_ckpt_wall - t0:.2f} s)")
+        sim.timers.add("output", t0)
+        return written
+
+    def advance(self, sim, n_steps, on_step=None, until=None, until_every=100, last_step=None):
+        """Advance up to ``n_steps`` steps, calling ``on_step(sim)`` after each; stop early when
+        ``until(sim)`` (a collective decision) is true, checked every ``until_every`` steps.
+        Returns "done", "until" or "signal" (a checkpoint was written, ``status`` is set).
+        ``last_step`` (default: the step after n_steps) is the step of the whole run's end, for
+        the ETA and to skip a scheduled checkpoint there."""
+        run, comm = self.run, self.comm
+        step0, wall0 = sim.step, _time.perf_counter()
+        last_step = sim.step + n_steps if last_step is None else last_step
+        n_total = comm.allreduce_sum_int(sim.particles.n_local)
+        progress = Progress(comm, run["progress_every"])
+        try:
+            return self._advance(sim, n_steps, on_step, until, until_every, last_step, step0, wall0, n_total, progress)
+        finally:
+            progress.close()
+
+    def _advance(self, sim, n_steps, on_step, until, until_every, last_step, step0, wall0, n_total, progress):
+        run, comm = self.run, self.comm
+        for _ in range(max(int(n_steps), 0)):
+            sim.advance()
+            k = sim.step
+            t0 = _time.perf_counter()
+            if on_step is not None:
+                on_step(sim)
+            if run["progress_every"] and k % run["progress_every"] == 0:
+                el = _time.perf_counter() - wall0
+                done = k - step0
+                rate = n_total * done / el if el > 0 else 0.0
+                eta = el / max(done, 1) * (last_step - k)
+                line = (f"step {k:>9d}  t = {sim.time:.5e} s  dt = {sim.dt:.3e} s  contacts/particle = "
+                        f"{sim.contacts_per_particle():.2f}  {rate / 1e6:.2f} M particle-steps/s  ETA {eta:.0f} s")
+                if comm.rank == 0:
+                    progress.update(k, last_step, line)
+            sim.timers.add("output", t0)
+            if k % 100 == 0 and self.stop.stop_requested(comm):  # collective: the same step on every rank
+                self.log(f"step {k}: stop signal received; writing a checkpoint and stopping "
+                         f"(exit status {EXIT_CHECKPOINTED_ON_SIGNAL})")
+                self.checkpoint(sim, "stop signal")
+                self.status = EXIT_CHECKPOINTED_ON_SIGNAL
+                return "signal"
+            if until is not None and k % until_every == 0 and until(sim):
+                return "until"
+            why = []
+            if run["checkpoint_every"] and k % run["checkpoint_every"] == 0:
+                why.append(f"every {run['checkpoint_every']} steps")
+            if run["checkpoint_every_s"] and k % 100 == 0:
+                # the wall-clock interval as measured on rank 0, so that every rank agrees
+                if comm.bcast(_time.perf_counter() - self.last_ckpt_wall >= run["checkpoint_every_s"]
+                              if comm.rank == 0 else None):
+                    why.append(f"every {run['checkpoint_every_s']:g} s")
+            if why and k < last_step:
+                self.checkpoint(sim, ", ".join(why))
+        return "done"
+
+    def close(self):
+        self.stop.uninstall()
+
+
+def prepare_output(comm, out):
+    out = Path(out)
+    if comm.rank == 0:
+        out.mkdir(parents=True, exist_ok=True)
+    comm.barrier()
+    return out
+
+

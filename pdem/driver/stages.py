@@ -1,0 +1,231 @@
+"""Staged runs: a scene prepared and loaded in named stages, with a checkpoint at every stage end.
+
+`StagedRun` is the generic loop the multi-stage scenes (box test, and the oedometer, track
+section and blast layer that follow its pattern) share; a scene subclasses it and says, per
+stage, what opens it (`open_stage`: operations on the global tables — remove bodies above a
+height, pour a cloud with new gids, place a rigid body), which `Scene` holds it
+(`stage_scene`), what is recorded after each step and when the stage ends (`program`), and what
+happens at its end (`close_stage`). Everything else is here: the output directory, resume, the
+stage loop, the record of every finished stage and its checkpoint.
+
+Stage boundaries go through the checkpoint: at a stage end every rank writes its part, reads the
+merged gid-ordered tables back, applies the next stage's operations and builds the next scene
+with the contact history carried by key. So a staged run is bit-identical on any rank count and
+resumes from any checkpoint, mid-stage or between stages. ``state`` (JSON-able, in every
+checkpoint under the scene's name) is where the pipeline is: the stage index, whether its
+opening operations were applied, its start time, the next free gid, a summary row per finished
+stage and the scene's own entries.
+
+Table operations (`empty_tables`, `remove_above`, `append_bodies`, `next_free_gid`) work on the
+global tables of `pdem.checkpoint_state` and are pure functions.
+"""
+import time as _time
+from pathlib import Path
+
+import numpy as np
+
+from .. import __version__
+from ..config import run_settings
+from ..errors import InputError
+from ..io.checkpoint import CheckpointError, read_checkpoint
+from ..io.snapshots import SnapshotWriter
+from ..scene import sphere_columns
+from ..simulation import Timers
+from ..state import FIELDS
+from . import observables
+from .runloop import RunLoop, prepare_output, resume_point
+
+
+# ---------------------------------------------------------------------------- table operations
+def empty_tables():
+    """Global tables with no bodies."""
+    return {"particles": {k: np.zeros((0,) + shape, dtype) for k, (dtype, shape) in FIELDS.items()}}
+
+
+def remove_above(tables, height):
+    """Drop the spheres whose top z + r is above ``height`` [m]; returns (tables, removed)."""
+    p = tables["particles"]
+    keep = p["pos"][:, 2] + p["radius"] <= height
+    out = dict(tables)
+    out["particles"] = {k: v[keep] for k, v in p.items()}
+    return out, int((~keep).sum())
+
+
+def next_free_gid(tables, at_least=0):
+    """One past the largest gid of the tables (or ``at_least`` if larger)."""
+    gids = tables["particles"]["gid"]
+    return max(int(at_least), int(gids.max()) + 1 if len(gids) else 0)
+
+
+def append_bodies(tables, pos, radius, density, material, first_gid):
+    """``tables`` with new spheres at rest appended (gids from ``first_gid``; Yade's mass and
+    inertia from ``density`` [kg/m³]; ``material`` the material index)."""
+    new = sphere_columns(pos, radius, np.full(len(radius), float(density)), first_gid)
+    new["material"] = np.full(len(radius), int(material), np.int64)
+    new["blocked"] = np.zeros(len(radius), np.int64)
+    out = dict(tables)
+    old = tables["particles"]
+    out["particles"] = {k: np.concatenate([old[k], new[k]]) for k in old}
+    return out
+
+
+# ---------------------------------------------------------------------------- the staged run
+class StagedRun:
+    """A run in ``STAGES`` on this process's ranks. Subclasses set ``NAME`` (the scene's table
+    name, also the checkpoint meta key) and ``STAGES``, and implement the hooks below."""
+
+    NAME = "staged"
+    STAGES = ()
+
+    def __init__(self, path, doc, out_dir, comm, fresh):
+        self.run_cfg = run_settings(doc)
+        self.path, self.doc, self.comm = path, doc, comm
+        self.t_start = _time.perf_counter()
+        self.out = prepare_output(comm, out_dir)
+        self.scene_text = Path(path).read_text()
+        self.loop = RunLoop(comm, self.out, self.run_cfg, path, self.scene_text)
+        self.state = {"stage": 0, "started": False, "stage_t0": 0.0, "next_gid": 0, "stages": [],
+                      **self.initial_state()}
+        self.tables, self.meta = empty_tables(), None
+        resume = resume_point(comm, self.loop.ckdir, fresh)
+        if resume is not None:
+            self.tables, self.meta = read_checkpoint(resume)
+            if self.meta.get("scene_file") != self.scene_text or self.NAME not in self.meta:
+                raise CheckpointError(resume, "cannot continue this scene from it: it was written for another scene file")
+            self.state = self.meta[self.NAME]
+            k = self.state["stage"]
+            self.loop.log(f"resuming from {resume} at step {self.meta['step']} (stage "
+                          f"{self.STAGES[k] if k < len(self.STAGES) else 'none left'}, t = {self.meta['time']:.6e} s, "
+                          f"written by pdem {self.meta.get('pdem_version')})")
+            self.loop.last_ckpt_step = int(self.meta["step"])
+        self.restart_step = int(self.meta["step"]) if self.meta else None
+        every = self.run_cfg["snapshot_every"]
+        self.snaps = (SnapshotWriter(self.out, comm=comm, append=self.restart_step is not None,
+                                     restart_step=self.restart_step, log=lambda m: print(m, flush=True))
+                      if every else None)
+        self.timers = Timers()  # one timing table for the whole run
+        self.loop.extra_meta = lambda: {self.NAME: self.checkpoint_state()}
+        self.open_outputs()
+
+    # ------------------------------------------------------------------ hooks
+    def initial_state(self):
+        """The scene's own entries of ``state`` at the start."""
+        return {}
+
+    def checkpoint_state(self):
+        """``state`` as written into a checkpoint (a scene may add live objects' state)."""
+        return dict(self.state)
+
+    def open_outputs(self):
+        """Open the scene's writers (append after a restart: ``self.restart_step``)."""
+
+    def close_outputs(self):
+        """Flush and close them."""
+
+    def open_stage(self, stage, tables):
+        """(tables, log note): the operations that open ``stage`` on the global tables."""
+        return tables, ""
+
+    def stage_scene(self, stage, tables):
+        """The `Scene` of ``stage`` holding the bodies of ``tables``."""
+        raise NotImplementedError
+
+    def prepare(self, stage, sim, scene, mid_stage):
+        """Adjust the built simulation before the stage runs (e.g. lower the friction)."""
+
+    def program(self, stage, sim, scene):
+        """(on_step, until, until_every, t_end): what is recorded after each step and when the
+        stage ends (``until(sim)``, a collective decision checked every ``until_every`` steps;
+        ``t_end`` only for the ETA)."""
+        raise NotImplementedError
+
+    def max_steps(self, stage):
+        """At most this many steps in ``stage`` (default: until ``program``'s ``until``)."""
+        return 10**15
+
+    def close_stage(self, stage, sim):
+        """What the scene does at the end of ``stage`` before its checkpoint."""
+
+    def finish(self, sim, wall_s):
+        """Rank 0 at the end of the last stage: plots, analysis, summary."""
+
+    # ------------------------------------------------------------------ the loop
+    def run(self):
+        """Run (or resume) the remaining stages; returns the exit status."""
+        self.loop.log(f"pdem {__version__}: {self.NAME} {self.path} on {self.comm.size} rank(s); stages "
+                      f"{', '.join(self.STAGES)}")
+        sim = None
+        while self.state["stage"] < len(self.STAGES):
+            stage = self.STAGES[self.state["stage"]]
+            wall0 = _time.perf_counter()
+            sim, scene = self.build_stage(stage)
+            on_step, until, every, t_end = self.program(stage, sim, scene)
+            eta_step = sim.step + int(max(t_end - sim.time, 0.0) / max(sim.dt, 1e-300))
+            if self.loop.advance(sim, self.max_steps(stage), on_step=on_step, until=until, until_every=every,
+                                 last_step=eta_step) == "signal":
+                break
+            self.end_stage(stage, sim, wall0)
+        self.close_outputs()
+        if sim is None:
+            self.loop.log(f"the run in {self.out} is complete (its newest checkpoint is after the last stage); nothing "
+                          "to run (--fresh starts over)")
+        elif self.loop.status == 0 and self.comm.rank == 0:
+            self.finish(sim, _time.perf_counter() - self.t_start)
+        self.loop.close()
+        return self.loop.status
+
+    def build_stage(self, stage):
+        """The simulation of ``stage`` from the global tables (opening operations applied unless
+        the stage was already running in the checkpoint)."""
+        state, meta = self.state, self.meta
+        mid_stage = state["started"]
+        note = ""
+        if not mid_stage:
+            self.tables, note = self.open_stage(stage, self.tables)
+            state["next_gid"] = next_free_gid(self.tables, state["next_gid"])
+            state.update(started=True, stage_t0=float(meta["time"]) if meta else 0.0)
+        tables = self.tables
+        scene = self.stage_scene(stage, tables)
+        sim = scene.build(self.comm)
+        sim.timers = self.timers
+        sim.load_state(tables)
+        self.tables = None
+        if meta:
+            sim.step, sim.time = int(meta["step"]), float(meta["time"])
+            sim.n_rebuilds = int(meta.get("n_rebuilds", sim.n_rebuilds))
+        if mid_stage:  # continue exactly: the Δt and energy reference of the checkpoint
+            sim.dt = float(meta["dt"])
+            ref = meta.get("energy_reference")
+            sim.energy_reference = None if ref is None else [float(x) for x in ref]
+        else:
+            sim.update_dt(force=True)
+        self.prepare(stage, sim, scene, mid_stage)
+        n_total = self.comm.allreduce_sum_int(sim.particles.n_local)
+        self.loop.log(f"stage {stage}{' (resumed)' if mid_stage else ''}: {n_total} spheres, t = {sim.time:.4f} s, "
+                      f"dt = {sim.dt:.3e} s{'; ' + note if note else ''}")
+        return sim, scene
+
+    def end_stage(self, stage, sim, wall0, **record):
+        """Record the stage, let the scene close it, write its checkpoint and read it back for
+        the next stage."""
+        state = self.state
+        self.close_stage(stage, sim)
+        row = {"stage": stage, "t_start": state["stage_t0"], "t_end": sim.time, "step_end": sim.step,
+               "spheres": self.comm.allreduce_sum_int(sim.particles.n_local),
+               "unbalanced_force": observables.unbalanced_force(sim), "bed_top": observables.bed_top(sim),
+               "wall_s": _time.perf_counter() - wall0, **self.stage_record(stage, sim)}
+        state["stages"].append(row)
+        state.update(stage=state["stage"] + 1, started=False)
+        written = self.loop.checkpoint(sim, f"end of stage {stage}")
+        if state["stage"] < len(self.STAGES):
+            self.tables, self.meta = read_checkpoint(written)
+
+    def stage_record(self, stage, sim):
+        """Extra entries of the stage's summary row (JSON-able)."""
+        return {}
+
+
+def check_no_steps(steps):
+    """A staged run ends its stages on its own criteria: refuse ``--steps``."""
+    if steps is not None:
+        raise InputError(f"--steps = {steps}: not used by a staged scene (its stages end on their own criteria)")

@@ -1,0 +1,34 @@
+"""Scenes: the ready experiments pdem runs from a scene file, and their registry.
+
+A scene is a module with ``check(doc)`` (validate a parsed scene file without running it: one-line
+`InputError`) and ``run(path, doc, out_dir, comm, steps=None, fresh=False)`` (run or resume it on
+the ranks of ``comm``; returns the exit status). A scene file selects one by its top-level table
+(``[box_test]`` → `pdem.scenes.box_test`); a file with none of them is a plain scene
+(`pdem.driver.plain`). Adding a scene is its module plus one line in `SCENES`.
+"""
+from importlib import import_module
+
+SCENES = {"box_test": "pdem.scenes.box_test"}
+
+
+def find(doc):
+    """(name, module) of the scene a parsed scene file asks for, or (None, None) for a plain scene."""
+    named = [k for k in SCENES if k in doc]
+    if len(named) > 1:
+        from ..errors import InputError
+
+        raise InputError(f"scene file: tables {', '.join(named)} select different scenes; keep one")
+    if not named:
+        return None, None
+    return named[0], import_module(SCENES[named[0]])
+
+
+def check(doc):
+    """Validate a parsed scene file of any scene (one-line `InputError`), without running it."""
+    name, module = find(doc)
+    if module is not None:
+        return module.check(doc)
+    from ..config import run_settings, scene_from_dict
+
+    run_settings(doc)
+    scene_from_dict(doc, scene_tables=tuple(SCENES))
