@@ -12,13 +12,16 @@ from yade.wrapper import (ForceResetter, InsertionSortCollider, Bo1_Sphere_Aabb,
                           Bo1_Facet_Aabb, InteractionLoop, Ig2_Sphere_Sphere_ScGeom,
                           Ig2_Wall_Sphere_ScGeom, Ig2_Facet_Sphere_ScGeom,
                           Ip2_FrictMat_FrictMat_FrictPhys, Law2_ScGeom_FrictPhys_CundallStrack,
-                          NewtonIntegrator, FrictMat, Sphere, Wall, Facet)
+                          NewtonIntegrator, FrictMat, Sphere, Wall, Facet, Clump, CohFrictMat,
+                          CohFrictPhys, Ig2_Sphere_Sphere_ScGeom6D, Ip2_CohFrictMat_CohFrictMat_CohFrictPhys,
+                          Law2_ScGeom6D_CohFrictPhys_CohesionMoment)
 
 SCRIPT_DIR = os.path.dirname(os.path.abspath(sys.argv[0]))
 DATA_DIR = os.path.join(os.path.dirname(SCRIPT_DIR), 'data')
 GRAVITY = (0.0, 0.0, -9.81)
 
 _materials = []  # JSON descriptions, index == Yade material id
+_gravity = [GRAVITY]  # gravity of the current scene (set by setup_engines), written by write_json
 
 
 def v3(v):
@@ -39,22 +42,54 @@ def add_material(label, density, young, poisson, frictionAngle):
     return mid
 
 
-def setup_engines(damping, dt):
+def add_coh_material(label, density, young, poisson, frictionAngle, normalCohesion, shearCohesion,
+                     fragile=True, momentRotationLaw=False, isCohesive=True):
+    m = CohFrictMat(density=density, young=young, poisson=poisson, frictionAngle=frictionAngle, label=label,
+                    isCohesive=isCohesive, normalCohesion=normalCohesion, shearCohesion=shearCohesion,
+                    fragile=fragile, momentRotationLaw=momentRotationLaw)
+    mid = O.materials.append(m)
+    _materials.append({'id': mid, 'label': label, 'type': 'CohFrictMat', 'density': float(density),
+                       'young': float(young), 'poisson': float(poisson),
+                       'frictionAngle': float(frictionAngle), 'isCohesive': bool(isCohesive),
+                       'normalCohesion': float(normalCohesion), 'shearCohesion': float(shearCohesion),
+                       'fragile': bool(fragile), 'momentRotationLaw': bool(momentRotationLaw)})
+    return mid
+
+
+def reset_scene():
+    """O.reset() and forget the materials (to rebuild the same scene in a second pass)."""
+    O.reset()
+    del _materials[:]
+
+
+def setup_engines(damping, dt, gravity=GRAVITY, cohesive=False, setCohesionNow=True,
+                  setCohesionOnNewContacts=False):
+    """The linear-model engines (default), or with cohesive=True the cohesive model:
+    Ig2_Sphere_Sphere_ScGeom6D, Ip2_CohFrictMat_CohFrictMat_CohFrictPhys, Law2_ScGeom6D_CohFrictPhys_CohesionMoment."""
+    if cohesive:
+        loop = InteractionLoop(
+            [Ig2_Sphere_Sphere_ScGeom6D()],
+            [Ip2_CohFrictMat_CohFrictMat_CohFrictPhys(setCohesionNow=setCohesionNow,
+                                                      setCohesionOnNewContacts=setCohesionOnNewContacts)],
+            [Law2_ScGeom6D_CohFrictPhys_CohesionMoment()])
+    else:
+        loop = InteractionLoop(
+            [Ig2_Sphere_Sphere_ScGeom(), Ig2_Wall_Sphere_ScGeom(), Ig2_Facet_Sphere_ScGeom()],
+            [Ip2_FrictMat_FrictMat_FrictPhys()],
+            [Law2_ScGeom_FrictPhys_CundallStrack()])
     O.engines = [
         ForceResetter(),
         InsertionSortCollider([Bo1_Sphere_Aabb(), Bo1_Wall_Aabb(), Bo1_Facet_Aabb()]),
-        InteractionLoop(
-            [Ig2_Sphere_Sphere_ScGeom(), Ig2_Wall_Sphere_ScGeom(), Ig2_Facet_Sphere_ScGeom()],
-            [Ip2_FrictMat_FrictMat_FrictPhys()],
-            [Law2_ScGeom_FrictPhys_CundallStrack()]),
-        NewtonIntegrator(damping=damping, gravity=GRAVITY),
+        loop,
+        NewtonIntegrator(damping=damping, gravity=tuple(gravity)),
     ]
     O.dt = dt
+    _gravity[0] = tuple(float(g) for g in gravity)
 
 
 def describe_body(b, extra=None):
     s = b.state
-    d = {'id': b.id, 'material': b.material.id,
+    d = {'id': b.id, 'material': (b.material.id if b.material is not None else None),
          'fixed': bool(s.blockedDOFs == 'xyzXYZ'), 'blockedDOFs': s.blockedDOFs,
          'pos': v3(s.pos), 'ori': quat(s.ori), 'vel': v3(s.vel), 'angVel': v3(s.angVel),
          'mass': float(s.mass), 'inertia': v3(s.inertia)}
@@ -67,6 +102,13 @@ def describe_body(b, extra=None):
         d['axis'] = int(sh.axis)
         d['sense'] = int(sh.sense)
         d['position'] = float(s.pos[sh.axis])
+    elif isinstance(sh, Clump):
+        d['kind'] = 'clump'
+        d['angMom'] = v3(s.angMom)
+        d['aspherical'] = bool(b.aspherical)
+        # {member id: (relPos, relOri)} as stored by Yade (member pos = clump pos + ori*relPos)
+        d['members'] = {str(mid): {'relPos': v3(se3[0]), 'relOri': quat(se3[1])}
+                        for mid, se3 in sorted(sh.members.items())}
     elif isinstance(sh, Facet):
         d['kind'] = 'facet'
         d['vertices_relative'] = [v3(v) for v in sh.vertices]
@@ -74,6 +116,8 @@ def describe_body(b, extra=None):
         d['normal'] = v3(sh.normal)
     else:
         d['kind'] = type(sh).__name__
+    if b.isClumpMember:
+        d['clumpId'] = int(b.clumpId)
     if extra:
         d.update(extra)
     return d
@@ -91,6 +135,8 @@ def snapshot(all_bodies=False):
                              'ori': quat(s.ori),
                              # accumulators of the last step (ForceResetter clears them at the next one)
                              'force': v3(O.forces.f(b.id)), 'torque': v3(O.forces.t(b.id))}
+        if b.isClump:
+            bodies[str(b.id)].update({'angMom': v3(s.angMom), 'mass': float(s.mass), 'inertia': v3(s.inertia)})
     inters = []
     for i in O.interactions:
         if not i.isReal:
@@ -106,6 +152,12 @@ def snapshot(all_bodies=False):
             'kn': float(p.kn), 'ks': float(p.ks),
             'tangensOfFrictionAngle': float(p.tangensOfFrictionAngle),
         })
+        if isinstance(p, CohFrictPhys):
+            inters[-1].update({'normalAdhesion': float(p.normalAdhesion), 'shearAdhesion': float(p.shearAdhesion),
+                               'cohesionBroken': bool(p.cohesionBroken), 'unp': float(p.unp),
+                               'unpMax': float(p.unpMax), 'fragile': bool(p.fragile),
+                               'initCohesion': bool(p.initCohesion),
+                               'momentRotationLaw': bool(p.momentRotationLaw)})
     return {'iter': int(O.iter), 'time': float(O.time), 'bodies': bodies, 'interactions': inters}
 
 
@@ -147,9 +199,9 @@ def run_and_record(iters, all_bodies=False, verbose=True, contact_every=None):
     return records, events
 
 
-def write_json(name, case, damping, dt, bodies_desc, records, events=None, extra=None):
+def write_json(name, case, damping, dt, bodies_desc, records, events=None, extra=None, compact=False):
     out = {'case': case, 'yade_version': version, 'dt': float(dt), 'damping': float(damping),
-           'gravity': list(GRAVITY), 'engines': [e.__class__.__name__ for e in O.engines],
+           'gravity': list(_gravity[0]), 'engines': [e.__class__.__name__ for e in O.engines],
            'materials': _materials, 'bodies': bodies_desc, 'records': records,
            'interaction_events': events if events is not None else []}
     if extra:
@@ -157,5 +209,18 @@ def write_json(name, case, damping, dt, bodies_desc, records, events=None, extra
     os.makedirs(DATA_DIR, exist_ok=True)
     path = os.path.join(DATA_DIR, name)
     with open(path, 'w') as f:
-        json.dump(out, f, indent=1)
+        if compact:   # same content, no indentation (large files)
+            json.dump(out, f, separators=(',', ':'))
+        else:
+            json.dump(out, f, indent=1)
     print('wrote', path)
+
+
+def event_iters(events, before, after, lo=0, hi=None):
+    """Iterations k-before .. k+after around every interaction event k (clipped to [lo, hi])."""
+    out = set()
+    for e in events:
+        for k in range(e['iter'] - before, e['iter'] + after + 1):
+            if k >= lo and (hi is None or k <= hi):
+                out.add(k)
+    return out

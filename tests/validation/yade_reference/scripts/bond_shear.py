@@ -1,0 +1,6 @@
+# Bond scene 'bond_shear' (see bond_cases.py) -> data/bond_shear.json
+# Run (from tests/validation/yade_reference/): yade -n -j1 -x scripts/bond_shear.py
+import sys, os
+CASE = 'bond_shear'
+_f = os.path.join(os.path.dirname(os.path.abspath(sys.argv[0])), 'bond_cases.py')
+exec(compile(open(_f).read(), _f, 'exec'))
