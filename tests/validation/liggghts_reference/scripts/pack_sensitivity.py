@@ -79,7 +79,7 @@ def main(base_run):
     dst = HERE.parent / "data" / "pack_settle_sensitivity.json"
     dst.write_text(json.dumps(out, indent=1) + "\n")
     print(f"wrote {dst}; scratch {work}")
-    for r in recs[::4] + [recs[-1]]:
+    for r in recs[::4] + ([recs[-1]] if (len(recs) - 1) % 4 else []):
         print(f"{r['step']:6d}  1ulp: dpos {r['one_ulp']['max_dpos']:.2e} dvel {r['one_ulp']['max_dvel']:.2e}   "
               f"2 ranks: dpos {r['two_ranks']['max_dpos']:.2e} dvel {r['two_ranks']['max_dvel']:.2e}")
 

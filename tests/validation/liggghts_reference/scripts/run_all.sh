@@ -1,5 +1,5 @@
 #!/bin/sh
-# Regenerate all LIGGGHTS reference data (a few seconds on one core), then check them with the
+# Regenerate all LIGGGHTS reference data (about 25 s), then check them with the
 # pure-Python re-implementation.
 #   sh tests/validation/liggghts_reference/scripts/run_all.sh
 # Needs /usr/bin/liggghts (Debian package liggghts 3.8.0+repack1) and python3 (standard library only).
