@@ -1,4 +1,5 @@
-"""Command line: ``python -m analysis box RESULTS.h5 [--out DIR]``.
+"""Command line: ``python -m analysis box RESULTS.h5 [--out DIR]``; also ``grading``,
+``blast`` and ``track`` (each defined by its module's ``add_parser``).
 
 This module owns the CLI only: argument parsing, the output directory and exit status. Bad
 input (not a pdem result, no complete cycle, unwritable output) exits with status 2 and one
@@ -11,6 +12,7 @@ import argparse
 import sys
 from pathlib import Path
 
+from . import blast, grading, track
 from .box import analyse_box
 from .io import ResultFileError, read_box_test
 from .plots import plot_loops, plot_settlement, plot_stiffness
@@ -45,6 +47,8 @@ def build_parser() -> argparse.ArgumentParser:
     box.add_argument("--unload-fraction", type=float, default=UNLOADING_FRACTION,
                      metavar="F", help="part of the force drop used for the unloading "
                                        "stiffness (default: %(default)s)")
+    for module in (grading, blast, track):
+        module.add_parser(sub)
     return parser
 
 
@@ -74,11 +78,15 @@ def main(argv=None) -> int:
         parser.print_help(sys.stderr)
         return EXIT_BAD_INPUT
     try:
-        written = run_box(args.results, args.out, tuple(args.window), args.unload_fraction)
+        if hasattr(args, "run"):
+            written = args.run(args)
+        else:
+            written = run_box(args.results, args.out, tuple(args.window), args.unload_fraction)
     except ResultFileError as err:
         return _fail(str(err))
     except (ValueError, OSError) as err:
-        return _fail(f"{args.results}: {_one_line(err)}")
+        inputs = args.results if isinstance(args.results, list) else [args.results]
+        return _fail(f"{' '.join(map(str, inputs))}: {_one_line(err)}")
     for path in written:
         print(path)
     return 0
