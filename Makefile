@@ -15,7 +15,7 @@ PYTEST  := $(VPY) -m pytest -q --timeout=900 --timeout-method=thread
 MPI_PYTEST := timeout -k 10 1500 $(MPIEXEC) -n $(NP) $(VPY) -m mpi4py -m pytest -q \
               --timeout=900 --timeout-method=thread --capture=sys
 
-.PHONY: venv run test test-unit test-mpi bench validate clean
+.PHONY: venv run test lint test-quick test-unit test-mpi bench validate clean
 
 venv: $(VENV)/.done
 
@@ -29,13 +29,19 @@ $(VENV)/.done: requirements.lock pyproject.toml
 run: venv
 	$(MPIEXEC) -n 2 $(VPY) -m pdem run jobs/box_test.toml --out runs/box_test --fresh
 
-# Serial tests first (they also fill the numba cache), then the MPI tests on NP ranks and on 3.
-test: venv
+# Lint, serial tests (they also fill the numba cache), then the MPI tests on NP ranks and on 3.
+test: venv lint
 	$(PYTEST) tests --ignore=tests/mpi
 	@if [ -d tests/mpi ]; then \
 	  $(MPI_PYTEST) tests/mpi && \
 	  timeout -k 10 1500 $(MPIEXEC) -n 3 $(VPY) -m mpi4py -m pytest -q --timeout=900 --timeout-method=thread --capture=sys tests/mpi; \
 	fi
+
+lint: venv
+	$(VENV)/bin/ruff check pdem tests analysis bench jobs
+
+test-quick: venv lint   # without the tests marked slow (CI runs everything)
+	$(PYTEST) tests --ignore=tests/mpi -m "not slow"
 
 test-unit: venv
 	$(PYTEST) tests/unit

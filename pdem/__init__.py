@@ -7,6 +7,6 @@ from .errors import InputError, InstabilityError
 from .materials import Material
 from .scene import Scene
 from .simulation import Simulation
+from .version import __version__
 
-__version__ = "0.1.0"
 __all__ = ["Scene", "Simulation", "Material", "InputError", "InstabilityError", "__version__"]

@@ -22,6 +22,7 @@ import numpy as np
 from .errors import InputError
 from .loads import Constant, Haversine, Impulse
 from .state import DOF_ALL
+from .validate import number, vector3
 
 DOF_LETTERS = "xyzXYZ"
 ROTATIONS = 0b111000
@@ -82,27 +83,17 @@ class Boxes:
             direction=(0.0, 0.0, -1.0), velocity=(0.0, 0.0, 0.0), damping=0.0, name=""):
         """Validate and append one box; returns its index."""
         label = f"boxes.{name}" if name else f"boxes[{len(self)}]"
-        c = self._vector(f"{label}.center", center)
-        h = self._vector(f"{label}.half_extents", half_extents)
+        c = vector3(f"{label}.center", center)
+        h = vector3(f"{label}.half_extents", half_extents)
         if not np.all(h > 0.0):
             raise InputError(f"{label}.half_extents = {h.tolist()}: every half extent must be > 0 [m]")
-        v = self._vector(f"{label}.velocity", velocity)
-        try:
-            m = float(mass)
-        except (TypeError, ValueError):
-            m = float("nan")
-        if not (np.isfinite(m) and m > 0.0):
-            raise InputError(f"{label}.mass = {mass!r}: must be a number > 0 [kg]")
-        try:
-            lam = float(damping)
-        except (TypeError, ValueError):
-            lam = float("nan")
-        if not (0.0 <= lam <= 0.99):
-            raise InputError(f"{label}.damping = {damping!r}: must be in [0, 0.99] (Cundall's lambda_D)")
+        v = vector3(f"{label}.velocity", velocity)
+        m = number(f"{label}.mass", mass, 0.0, lo_open=True, allow="a number > 0 [kg]")
+        lam = number(f"{label}.damping", damping, 0.0, 0.99, allow="in [0, 0.99] (Cundall's lambda_D)")
         mask = blocked_mask(label, blocked, fixed)
         if load is not None and not isinstance(load, (Constant, Haversine, Impulse)):
             raise InputError(f"{label}.load = {load!r}: must be None or a pdem.loads program (Haversine, Constant, Impulse)")
-        d = self._vector(f"{label}.direction", direction)
+        d = vector3(f"{label}.direction", direction)
         norm = float(np.sqrt(d @ d))
         if not norm > 0.0:
             raise InputError(f"{label}.direction = {d.tolist()}: must be a non-zero vector")
@@ -118,12 +109,6 @@ class Boxes:
         self.load_force = np.zeros((len(self), 3))
         return len(self) - 1
 
-    @staticmethod
-    def _vector(label, value):
-        a = np.asarray(value, dtype=np.float64).reshape(-1) if np.ndim(value) else np.full(1, np.nan)
-        if a.shape != (3,) or not np.all(np.isfinite(a)):
-            raise InputError(f"{label} = {value!r}: must be a finite (x, y, z) triple")
-        return a
 
     def index(self, name_or_index):
         """Index of a box from its name or index."""

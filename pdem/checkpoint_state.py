@@ -37,7 +37,7 @@ def checkpoint_tables(sim):
 
     Meta: step, time, dt, the energy-check reference and the other scalars of the loop, the
     scene spec and the pdem version."""
-    from . import __version__
+    from .version import __version__
 
     p = sim.particles
     tables = {"particles": p.columns()}

@@ -10,26 +10,17 @@ A program is a small immutable spec with ``value(t)`` (t [s] since the start of 
   cycle, F_max at mid-cycle); F_min before and after (thesis ch. 5, Nottingham box test).
 - `Impulse(f0, duration, start=0)`: F = F_0 (1 − τ'/τ) for 0 ≤ τ' = t − start ≤ τ, else 0.
 """
-from math import cos, isfinite, pi
+from math import cos, pi
 
 from .errors import InputError
-
-
-def _num(label, value, lo=None, lo_open=False, integer=False, allow="a finite number"):
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise InputError(f"{label} = {value!r}: must be {allow}") from None
-    if not isfinite(v) or (lo is not None and (v <= lo if lo_open else v < lo)) or (integer and v != int(v)):
-        raise InputError(f"{label} = {value!r}: must be {allow}")
-    return int(v) if integer else v
+from .validate import number
 
 
 class Constant:
     """F(t) = force [N]."""
 
     def __init__(self, force, *, label="load"):
-        self.force = _num(f"{label}.force", force, allow="a finite number [N]")
+        self.force = number(f"{label}.force", force, allow="a finite number [N]")
 
     def value(self, t):
         return self.force
@@ -43,13 +34,13 @@ class Haversine:
     starting at ``start`` [s]; F_min outside the cycles."""
 
     def __init__(self, f_min, f_max, frequency, cycles, *, start=0.0, label="load"):
-        self.f_min = _num(f"{label}.f_min", f_min, allow="a finite number [N]")
-        self.f_max = _num(f"{label}.f_max", f_max, allow="a finite number [N]")
+        self.f_min = number(f"{label}.f_min", f_min, allow="a finite number [N]")
+        self.f_max = number(f"{label}.f_max", f_max, allow="a finite number [N]")
         if self.f_max < self.f_min:
             raise InputError(f"{label}.f_max = {f_max!r}: must be >= f_min = {self.f_min!r} [N]")
-        self.frequency = _num(f"{label}.frequency", frequency, 0.0, lo_open=True, allow="a number > 0 [Hz]")
-        self.cycles = _num(f"{label}.cycles", cycles, 1, integer=True, allow="an integer >= 1")
-        self.start = _num(f"{label}.start", start, 0.0, allow="a time >= 0 [s]")
+        self.frequency = number(f"{label}.frequency", frequency, 0.0, lo_open=True, allow="a number > 0 [Hz]")
+        self.cycles = number(f"{label}.cycles", cycles, 1, integer=True, allow="an integer >= 1")
+        self.start = number(f"{label}.start", start, 0.0, allow="a time >= 0 [s]")
 
     @property
     def end(self):
@@ -70,9 +61,9 @@ class Impulse:
     """F = f0 (1 − (t − start)/duration) on [start, start + duration], else 0 [N]."""
 
     def __init__(self, f0, duration, *, start=0.0, label="load"):
-        self.f0 = _num(f"{label}.f0", f0, allow="a finite number [N]")
-        self.duration = _num(f"{label}.duration", duration, 0.0, lo_open=True, allow="a time > 0 [s]")
-        self.start = _num(f"{label}.start", start, 0.0, allow="a time >= 0 [s]")
+        self.f0 = number(f"{label}.f0", f0, allow="a finite number [N]")
+        self.duration = number(f"{label}.duration", duration, 0.0, lo_open=True, allow="a time > 0 [s]")
+        self.start = number(f"{label}.start", start, 0.0, allow="a time >= 0 [s]")
 
     def value(self, t):
         tau = t - self.start

@@ -12,7 +12,7 @@ from pathlib import Path
 
 from analysis.schema import RUN_SERIES
 
-from .. import __version__
+from ..version import __version__
 from ..config import run_settings, scene_from_dict
 from ..io.checkpoint import CheckpointError, read_checkpoint
 from ..io.snapshots import SnapshotWriter

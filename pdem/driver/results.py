@@ -9,7 +9,7 @@ import json
 
 from analysis import schema
 
-from .. import __version__
+from ..version import __version__
 from ..io.timeseries import TimeSeriesWriter, write_table
 
 SCHEMA = (schema.SCHEMA, schema.SCHEMA_VERSION)

@@ -24,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import __version__
+from ..version import __version__
 from ..config import run_settings
 from ..errors import InputError
 from ..io.checkpoint import CheckpointError, read_checkpoint

@@ -9,6 +9,7 @@ re-estimation, stability checks and neighbour rebuilds all fall at different pha
 """
 import numpy as np
 import pytest
+from lattice_scenes import lattice_scene
 
 from pdem.io.checkpoint import read_checkpoint, write_checkpoint
 from pdem.parallel.comm import SerialComm
@@ -16,25 +17,7 @@ from pdem.scene import Scene
 
 
 def deposition_scene():
-    rng = np.random.default_rng(7)
-    spacing = 0.016
-    nx, ny, nz = 6, 6, 12
-    g = np.stack(np.meshgrid(np.arange(nx), np.arange(ny), np.arange(nz), indexing="ij"), -1).reshape(-1, 3)
-    pos = (g + 0.5) * spacing + rng.uniform(-0.0005, 0.0005, (len(g), 3))
-    radius = 0.005 * rng.uniform(0.6, 1.4, len(g))
-    vel = np.zeros((len(g), 3))
-    vel[:, 0] = rng.uniform(-0.5, 0.5, len(g))
-    vel[:, 2] = rng.uniform(-0.5, 0.0, len(g))
-    scene = Scene(dt="auto", damping=0.3, gravity=(0.0, 0.0, -9.81), dt_interval=50, check_interval=40)
-    m = scene.material(density=2700.0, young=1e7, poisson=0.3, friction_angle=0.5)
-    scene.add_spheres(pos, radius, m, vel=vel)
-    lx, ly = nx * spacing, ny * spacing
-    scene.add_wall(2, 0.0, m, sense=1)
-    scene.add_wall(0, 0.0, m, sense=1)
-    scene.add_wall(0, lx, m, sense=-1)
-    scene.add_wall(1, 0.0, m, sense=1)
-    scene.add_wall(1, ly, m, sense=-1)
-    return scene
+    return lattice_scene(7, (6, 6, 12), vx=0.5, vz=0.5, one_sided=True, dt_interval=50, check_interval=40)[0]
 
 
 def moving_boundary_scene():

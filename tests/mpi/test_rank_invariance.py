@@ -9,34 +9,17 @@ Serially (one rank) the test compares two serial runs, i.e. only determinism.
 """
 import numpy as np
 import pytest
+from lattice_scenes import lattice_scene
 
 from pdem.parallel.comm import SerialComm, configure_threads
 from pdem.parallel.slab_domain import SlabDomain
-from pdem.scene import Scene
 
 _REFERENCE = {}  # n_steps -> serial state by gid (computed once per process)
 
 
 def make_scene():
-    rng = np.random.default_rng(20261122)
-    spacing = 0.016
-    nx, ny, nz = 24, 6, 14  # 2016 bodies on a jittered lattice (no initial overlap)
-    g = np.stack(np.meshgrid(np.arange(nx), np.arange(ny), np.arange(nz), indexing="ij"), -1).reshape(-1, 3)
-    pos = (g + 0.5) * spacing + rng.uniform(-0.0005, 0.0005, (len(g), 3))
-    radius = 0.005 * rng.uniform(0.6, 1.4, len(g))
-    vel = np.zeros((len(g), 3))
-    vel[:, 0] = rng.uniform(-0.6, 0.6, len(g))  # sideways motion: bodies cross slab edges
-    vel[:, 2] = rng.uniform(-0.5, 0.0, len(g))
-    scene = Scene(dt="auto", damping=0.3, gravity=(0.0, 0.0, -9.81), slab_axis=0)
-    m = scene.material(density=2700.0, young=1e7, poisson=0.3, friction_angle=0.5)
-    scene.add_spheres(pos, radius, m, vel=vel)
-    lx, ly = nx * spacing, ny * spacing
-    scene.add_wall(2, 0.0, m)
-    scene.add_wall(0, 0.0, m)
-    scene.add_wall(0, lx, m)
-    scene.add_wall(1, 0.0, m)
-    scene.add_wall(1, ly, m)
-    return scene
+    # 2016 bodies on a jittered lattice; sideways motion: bodies cross slab edges
+    return lattice_scene(20261122, (24, 6, 14), vx=0.6, vz=0.5, slab_axis=0)[0]
 
 
 def state_by_gid(gid, *cols):

@@ -9,34 +9,19 @@ must equal the reference to the last bit. Restores of a 2-rank checkpoint onto 1
 through the command line: tests/io/test_restart_cli.py.
 """
 import numpy as np
+from lattice_scenes import lattice_scene
 
 from pdem.io.checkpoint import read_checkpoint, write_checkpoint
 from pdem.parallel.comm import SerialComm, configure_threads
-from pdem.scene import Scene
 
 N_STEPS, K_STEP = 9000, 6345
 _REFERENCE = {}
 
 
 def make_scene():
-    rng = np.random.default_rng(5)
-    spacing = 0.016
-    nx, ny, nz = 18, 5, 10  # 900 bodies, a box long along x (the slab axis)
-    g = np.stack(np.meshgrid(np.arange(nx), np.arange(ny), np.arange(nz), indexing="ij"), -1).reshape(-1, 3)
-    pos = (g + 0.5) * spacing + rng.uniform(-0.0005, 0.0005, (len(g), 3))
-    radius = 0.005 * rng.uniform(0.6, 1.4, len(g))
-    vel = np.zeros((len(g), 3))
-    vel[:, 0] = rng.uniform(-0.6, 0.6, len(g))  # bodies cross slab edges
-    vel[:, 2] = rng.uniform(-0.5, 0.0, len(g))
-    scene = Scene(dt="auto", damping=0.3, gravity=(0.0, 0.0, -9.81), slab_axis=0, dt_interval=50, check_interval=40)
-    m = scene.material(density=2700.0, young=1e7, poisson=0.3, friction_angle=0.5)
-    scene.add_spheres(pos, radius, m, vel=vel)
-    scene.add_wall(2, 0.0, m, sense=1)
-    scene.add_wall(0, 0.0, m, sense=1)
-    scene.add_wall(0, nx * spacing, m, sense=-1)
-    scene.add_wall(1, 0.0, m, sense=1)
-    scene.add_wall(1, ny * spacing, m, sense=-1)
-    return scene
+    # 900 bodies, a box long along x (the slab axis); bodies cross slab edges
+    return lattice_scene(5, (18, 5, 10), vx=0.6, vz=0.5, one_sided=True, slab_axis=0, dt_interval=50,
+                         check_interval=40)[0]
 
 
 def by_gid(comm, sim):

@@ -104,6 +104,7 @@ def test_newton_third_law_and_momentum():
     np.testing.assert_allclose(p1, p0, rtol=0, atol=1e-12 * (abs(p0).max() + 1.0))
 
 
+@pytest.mark.slow  # thousands of steps of a packed bed under a box
 def test_loaded_box_settles_on_bed_of_fixed_spheres():
     """A free box (z only, own damping) under a constant downward load on 9 fixed spheres settles
     where the contact force equals load + weight, shared equally: pen = (F + M g)/(9 kn)."""
@@ -172,6 +173,7 @@ def test_box_input_errors_and_no_boxes():
     assert sim.kind("sphere_box") is None and sim.boxes is None and "boxes" not in sim.spec
 
 
+@pytest.mark.slow  # thousands of steps of a packed bed under a box
 def test_haversine_on_box_and_cycle_record():
     """A sleeper under a haversine program: the applied load follows the formula, and the cycle
     record has one row per cycle with the load extrema F_max/F_min and the settlement sampled at

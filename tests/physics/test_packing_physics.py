@@ -7,6 +7,7 @@ import textwrap
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from pdem import diagnostics
 from physics_scenes import box_scene
@@ -104,6 +105,7 @@ THREAD_SCRIPT = textwrap.dedent("""
 """)
 
 
+@pytest.mark.slow  # a 5400-sphere bed in subprocesses with 1 and 2 threads
 def test_thread_invariance(tmp_path):
     """(g) 5400 spheres (above PARALLEL_MIN, so the parallel kernels run with 2 threads): 1 and 2 threads
     give bit-identical positions, velocities, spins, forces and torques."""

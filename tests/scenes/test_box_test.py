@@ -21,6 +21,9 @@ from analysis.io import read_box_test
 from pdem_cli import MPIEXEC, pdem_cmd, run_pdem
 from pdem.io.checkpoint import list_checkpoints, read_checkpoint
 
+# slow: whole box tests through `pdem run` subprocesses on 1, 2 and 3 ranks (minutes)
+pytestmark = pytest.mark.slow
+
 SCENE = """[simulation]
 dt = "auto"
 damping = 0.3
@@ -69,7 +72,7 @@ cycles = 2
 """
 N_CYCLES, F_MAX, SLEEPER_WEIGHT = 2, 300.0, 5.0 * 9.81
 
-pytestmark = pytest.mark.skipif(not MPIEXEC.exists(), reason="no mpiexec next to the Python executable")
+needs_mpiexec = pytest.mark.skipif(not MPIEXEC.exists(), reason="multi-rank test: no mpiexec next to the Python executable")
 
 
 def groups(path):
@@ -93,17 +96,27 @@ def assert_same_run(ref, got):
 
 
 @pytest.fixture(scope="module")
-def runs(tmp_path_factory):
+def scene_dir(tmp_path_factory):
     base = tmp_path_factory.mktemp("box_test")
     scene = base / "scene.toml"
     scene.write_text(SCENE)
-    r1 = run_pdem(1, scene, base / "r1")
-    r2 = run_pdem(2, scene, base / "r2")
-    return base, scene, r1, r2
+    return base, scene
 
 
-def test_every_stage_runs_and_leaves_results(runs):
-    base, _, r1, _ = runs
+@pytest.fixture(scope="module")
+def r1(scene_dir):
+    base, scene = scene_dir
+    return run_pdem(1, scene, base / "r1")
+
+
+@pytest.fixture(scope="module")
+def r2(scene_dir):
+    base, scene = scene_dir
+    return run_pdem(2, scene, base / "r2")
+
+
+def test_every_stage_runs_and_leaves_results(scene_dir, r1):
+    base, _ = scene_dir
     out = base / "r1"
     for stage in ("pour", "refill", "vibrate", "settle", "load"):
         assert f"stage {stage} done" in r1.stdout
@@ -126,13 +139,15 @@ def test_every_stage_runs_and_leaves_results(runs):
     assert np.all(z - 0.04 <= 0.16 + 1e-12) and np.all(z - 0.04 > 0.08)
 
 
-def test_same_bits_on_1_and_2_ranks(runs):
-    base, _, _, _ = runs
+@needs_mpiexec
+def test_same_bits_on_1_and_2_ranks(scene_dir, r1, r2):
+    base, _ = scene_dir
     assert_same_run(base / "r1", base / "r2")
 
 
-def test_resume_from_a_stage_boundary_on_3_ranks(runs):
-    base, scene, _, r2 = runs
+@needs_mpiexec
+def test_resume_from_a_stage_boundary_on_3_ranks(scene_dir, r1, r2):
+    base, scene = scene_dir
     out = base / "resume3"
     shutil.copytree(base / "r2", out)
     # keep the checkpoints up to the end of the refill stage: the run restarts at "vibrate"
@@ -146,8 +161,9 @@ def test_resume_from_a_stage_boundary_on_3_ranks(runs):
     assert_same_run(base / "r1", out)
 
 
-def test_sigterm_mid_stage_then_resume_on_1_rank(runs):
-    base, scene, _, _ = runs
+@needs_mpiexec
+def test_sigterm_mid_stage_then_resume_on_1_rank(scene_dir, r1):
+    base, scene = scene_dir
     out = base / "term"
     env = dict(os.environ, OMP_NUM_THREADS="1")
     proc = subprocess.Popen(pdem_cmd(2, scene, out), stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,

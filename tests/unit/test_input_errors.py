@@ -3,6 +3,7 @@ import subprocess
 import sys
 import textwrap
 
+import numpy as np
 import pytest
 
 import pdem
@@ -69,3 +70,19 @@ def test_cli_exit_status_2_and_one_line(tmp_path):
     assert out.returncode == 2
     lines = [l for l in out.stderr.splitlines() if l.strip()]
     assert len(lines) == 1 and "simulation.gravty" in lines[0] and "unknown key" in lines[0], out.stderr
+
+
+def test_poisson_zero_on_both_sides_gives_ks_zero_not_a_crash():
+    """Yade's Ip2 gives ks = 0/0 = NaN when both materials have ν = 0; numba raised
+    ZeroDivisionError inside the kernel. pdem defines ks = 0 (no shear spring, documented in
+    pdem.contact.linear): the contact pushes but carries no shear force."""
+    sc = pdem.Scene(dt=1e-6, gravity=(0.0, 0.0, -9.81))
+    a = sc.material(density=2600.0, young=1e7, poisson=0.0, friction_angle=0.5)
+    b = sc.material(density=2600.0, young=1e7, poisson=0.0, friction_angle=0.5)
+    sc.add_spheres([(0.0, 0.0, 0.0099), (0.0, 0.0, 0.03)], 0.01, [a, b], vel=[(0.1, 0, 0), (0, 0, 0)])
+    sc.add_wall("z", 0.0, b, sense=1)
+    sim = sc.build()
+    sim.run(200)
+    c = sim.contacts("sphere_wall")
+    assert len(c["ks"]) == 1 and c["ks"][0] == 0.0 and c["kn"][0] > 0.0
+    assert np.all(c["shear_force"] == 0.0) and np.all(np.isfinite(sim.particles.vel))

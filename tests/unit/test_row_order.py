@@ -81,6 +81,7 @@ def test_rows_in_cell_order_after_a_rebuild():
 
 
 @pytest.mark.parametrize("domain", [None, "slab"])
+@pytest.mark.slow  # runs the scene twice per domain
 def test_scrambled_rows_give_the_same_bits(domain):
     """Scramble the owned rows (and rebuild) mid-run: the trajectory by gid is bit-identical."""
     dom = (lambda: SlabDomain(SerialComm(), axis=0)) if domain else (lambda: None)

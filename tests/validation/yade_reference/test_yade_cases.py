@@ -91,6 +91,7 @@ def test_sphere_mass_inertia_bitwise():
 
 
 @pytest.mark.parametrize("case", SINGLE)
+@pytest.mark.slow  # up to 100 000 steps of a Yade reference case
 def test_single_sphere_bitwise(case):
     """Wall and facet scenes (≤ 2 contacts per body): every record bit-identical to Yade.
 
@@ -105,6 +106,7 @@ def test_single_sphere_bitwise(case):
 
 
 @pytest.mark.parametrize("case", ["wall_slide", "facet_tilted"])
+@pytest.mark.slow  # up to 100 000 steps of a Yade reference case
 def test_single_sphere_near_with_scene_mass(case):
     """With the masses as Scene.add_spheres computes them (last bit may differ from Yade's), the trajectory
     (pos, vel, angVel of the sphere) stays within 1e-10 relative of Yade's."""
@@ -130,6 +132,7 @@ def first_three_contact_iter(d):
     return None
 
 
+@pytest.mark.slow  # up to 100 000 steps of a Yade reference case
 def test_pack_settle():
     """40 spheres settling in a 5-wall box (damping 0.3): bit-identical to Yade while no body has 3
     contacts; afterwards the summation order differs (pdem: by partner gid; Yade: container order) and
