@@ -1,4 +1,5 @@
-"""Command line: ``python -m analysis box RESULTS.h5 [--out DIR]``.
+"""Command line: ``python -m analysis box RESULTS.h5 [--out DIR]``, ``python -m analysis campaign DIR``
+(`analysis.campaign`), ``python -m analysis error-vs-runtime DIR`` (`analysis.error_vs_runtime`).
 
 This module owns the CLI only: argument parsing, the output directory and exit status. Bad
 input (not a pdem result, no complete cycle, unwritable output) exits with status 2 and one
@@ -45,6 +46,10 @@ def build_parser() -> argparse.ArgumentParser:
     box.add_argument("--unload-fraction", type=float, default=UNLOADING_FRACTION,
                      metavar="F", help="part of the force drop used for the unloading "
                                        "stiffness (default: %(default)s)")
+    from . import campaign, error_vs_runtime
+
+    campaign.add_parser(sub)
+    error_vs_runtime.add_parser(sub)
     return parser
 
 
@@ -73,12 +78,29 @@ def main(argv=None) -> int:
     if args.command is None:
         parser.print_help(sys.stderr)
         return EXIT_BAD_INPUT
+    if args.command in ("campaign", "error-vs-runtime"):
+        return _run_campaign(args)
     try:
         written = run_box(args.results, args.out, tuple(args.window), args.unload_fraction)
     except ResultFileError as err:
         return _fail(str(err))
     except (ValueError, OSError) as err:
         return _fail(f"{args.results}: {_one_line(err)}")
+    for path in written:
+        print(path)
+    return 0
+
+
+def _run_campaign(args) -> int:
+    from . import campaign, error_vs_runtime
+
+    module = campaign if args.command == "campaign" else error_vs_runtime
+    try:
+        written = module.run(args)
+    except (campaign.CampaignError, ResultFileError) as err:
+        return _fail(str(err))
+    except (ValueError, OSError) as err:
+        return _fail(f"{args.dir}: {_one_line(err)}")
     for path in written:
         print(path)
     return 0

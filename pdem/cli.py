@@ -1,4 +1,5 @@
-"""The `pdem` command line: ``python -m pdem run SCENE.toml --out DIR``.
+"""The `pdem` command line: ``python -m pdem run SCENE.toml --out DIR``, ``python -m pdem campaign ...``
+(`pdem.campaign`).
 
 Bad input prints one line (the field, the value, what is allowed) and exits 2, and so does a
 checkpoint that cannot be resumed from (damaged, or written for another scene); a run stopped by
@@ -21,6 +22,12 @@ def main(argv=None):
                    help="override run.steps (the total of the run: a resumed run continues up to it)")
     r.add_argument("--fresh", action="store_true",
                    help="ignore and remove the checkpoints in OUT/checkpoints and start from step 0")
+    sub.add_parser("campaign", help="campaigns of runs: expand, run, slurm, status (docs/campaigns.md)", add_help=False)
+    argv = sys.argv[1:] if argv is None else list(argv)
+    if argv[:1] == ["campaign"]:  # its own parser (pdem.campaign.cli)
+        from .campaign import main as campaign_main
+
+        return campaign_main(argv[1:])
     args = ap.parse_args(argv)
     if args.command == "run":
         from pathlib import Path
