@@ -12,9 +12,11 @@ with NUMBA_NUM_THREADS = T, OMP_NUM_THREADS = 1. Running it again on the same di
 from its newest checkpoint. The member runs in a session of its own (a Ctrl-C at the terminal
 reaches only the runner). Started here (not by srun, which handles signals itself and starts the
 tasks elsewhere), it starts with SIGTERM and SIGUSR1 ignored until pdem installs its own
-handlers, and `stop` sends SIGTERM to its process group again every `RESEND_S` seconds until it
-exits, so a stop that arrives while pdem is still starting is not lost: pdem then writes a
-checkpoint and exits with status 3.
+handlers. `stop` sends SIGTERM to its process group, and again every `RESEND_S` seconds until
+pdem acknowledges it in the log (`STOP_ACK`) or exits, so a stop that arrives while pdem is still
+starting is not lost: pdem then writes a checkpoint and exits with status 3. A member that a stop
+killed instead (an MPI rank still starting, or already past its step loop) is recorded as stopped
+too: pdem's checkpoints and result files are written so that running it again resumes cleanly.
 """
 import os
 import signal
@@ -26,8 +28,10 @@ from pathlib import Path
 from .layout import LOG, SCENE
 from .record import EXIT_STOPPED, end_attempt, read_run, start_attempt, take_lock
 
-RESEND_S = 1.0
+RESEND_S = 2.0
+STOP_ACK = "stop signal received"  # what pdem logs when it has seen the stop signal
 LAUNCHERS = ("local", "mpiexec", "srun")
+KILLED_BY_STOP = {signal.SIGTERM, signal.SIGUSR1, 128 + signal.SIGTERM, 128 + signal.SIGUSR1}
 
 
 def launch_command(launcher, ranks, threads, scene, out, launcher_args=()):
@@ -63,6 +67,8 @@ class MemberProcess:
         self.proc = self.lock = self.log = self.rec = None
         self.t0 = None
         self.stop_sent = None  # time of the last stop signal sent
+        self.acked = False     # pdem logged that it saw the stop
+        self.log_offset = 0
 
     @property
     def cores(self):
@@ -86,6 +92,7 @@ class MemberProcess:
         cmd = launch_command(self.launcher, self.ranks, self.threads, self.dir / SCENE, self.dir, self.launcher_args)
         self.log.write("$ " + " ".join(cmd) + "\n")
         self.log.flush()
+        self.log_offset = self.log.tell()
         self.t0 = time.perf_counter()
         try:
             self.proc = subprocess.Popen(cmd, stdin=subprocess.DEVNULL, stdout=self.log, stderr=subprocess.STDOUT,
@@ -104,13 +111,25 @@ class MemberProcess:
             return self._finish(127)
         rc = self.proc.poll()
         if rc is None:
-            if self.stop_sent is not None and time.monotonic() - self.stop_sent >= RESEND_S:
+            if (self.stop_sent is not None and time.monotonic() - self.stop_sent >= RESEND_S
+                    and not self._acknowledged()):
                 self.stop()
             return None
         if rc < 0:
             self.log.write(f"pdem campaign: the member was killed by signal {-rc}\n")
-            rc = EXIT_STOPPED if self.stop_sent is not None and -rc in (signal.SIGTERM, signal.SIGUSR1) else 128 - rc
+            rc = 128 - rc
+        if self.stop_sent is not None and rc in KILLED_BY_STOP:
+            self.log.write(f"pdem campaign: exit status {rc} after a stop signal: recorded as stopped ({EXIT_STOPPED}); "
+                           "running it again resumes from its newest checkpoint\n")
+            rc = EXIT_STOPPED
         return self._finish(rc)
+
+    def _acknowledged(self):
+        if not self.acked:
+            with open(self.dir / LOG, errors="replace") as fh:
+                fh.seek(self.log_offset)
+                self.acked = STOP_ACK in fh.read()
+        return self.acked
 
     def _finish(self, rc):
         wall = time.perf_counter() - self.t0

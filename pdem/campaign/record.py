@@ -126,5 +126,5 @@ def member_state(d):
     if a["exit"] == EXIT_DONE:
         return "done", rec, ""
     if a["exit"] == EXIT_STOPPED:
-        return "stopped", rec, "checkpointed on a signal (exit 3); runs again from its checkpoint"
+        return "stopped", rec, "stopped on a signal (exit 3); runs again from its newest checkpoint"
     return "failed", rec, failure_message(d) or f"exit status {a['exit']}"

@@ -225,7 +225,8 @@ def load_campaign(path, out=None):
     out_dir = Path(out) if out is not None else Path(head.get("out", str(Path("runs") / name)))
 
     common = raw.get("set", {})
-    _check_keys(path, "set", common, set(common))
+    if not isinstance(common, dict):
+        raise _err(path, "[set] must be a table")
     common = flatten(common)
 
     factors, varied, seed_key = [], [], None
@@ -300,6 +301,12 @@ def load_campaign(path, out=None):
         factors.append(("seed", [(None, {seed_key: v}, {}) for v in values]))
     if not factors:
         raise _err(path, "nothing varies: add [seeds], [[grid]] or [[case]]")
+    for key in varied:  # a key has one source: a grid or the seeds, never also [set] or a case
+        if key in common:
+            raise _err(path, f"set.{key}: also varied (by a [[grid]] or [seeds]); remove one")
+        for k, c in enumerate(cases):
+            if key in flatten({a: b for a, b in c.items() if a not in ("name", "ranks", "threads")}):
+                raise _err(path, f"case[{k}].{key}: also varied (by a [[grid]] or [seeds]); remove one")
 
     local = raw.get("local", {})
     _check_keys(path, "local", local, LOCAL_KEYS)

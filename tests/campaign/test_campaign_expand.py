@@ -213,6 +213,8 @@ def test_another_campaigns_directory_is_refused(tmp_path, tiny):
     ("", r"nothing varies"),
     ('[seeds]\nvalues = [1]\n[slurm]\nwalltime = "1:00:00"', r"slurm.walltime: unknown key"),
     ('[seeds]\nvalues = [1]\n[sets]\na = 1', r"sets: unknown key"),
+    ('[seeds]\nvalues = [1]\n[set]\n"deposition.seed" = 4', r"set.deposition.seed: also varied"),
+    ('[seeds]\nvalues = [1]\n[[case]]\nname = "x"\ndeposition.seed = 4', r"case\[0\].deposition.seed: also varied"),
     ('[[grid]]\n"simulation.damping" = [-1.0]', r"damping"),
 ])
 def test_bad_campaigns_give_one_line(tmp_path, tiny, body, message):

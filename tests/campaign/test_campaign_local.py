@@ -12,6 +12,7 @@ from pathlib import Path
 
 import h5py
 import numpy as np
+import pytest
 
 from campaign_helpers import ROOT, pdem_campaign, write_campaign
 
@@ -116,3 +117,30 @@ values = [1, 2, 3]
             assert got[k].dtype == want[k].dtype and np.array_equal(got[k], want[k]), (n, k)
             assert got[k].tobytes() == want[k].tobytes(), (n, k)
     assert Path(ref / "seed-1" / "scene.toml").read_text() == Path(out / "seed-1" / "scene.toml").read_text()
+
+
+def test_two_rank_member_stops_and_resumes(tmp_path, tiny):
+    """A member on 2 ranks (the venv's mpiexec): SIGTERM to the runner reaches the ranks through
+    their process group; exit 3, then the same command resumes it to the end."""
+    p = write_campaign(tmp_path, '[set]\n"run.steps" = 2000\n[seeds]\nvalues = [7]\n', head="ranks = 2")
+    out = tmp_path / "runs" / "camp"
+    env = dict(os.environ, OMP_NUM_THREADS="1", MPLBACKEND="Agg")
+    proc = subprocess.Popen([sys.executable, "-m", "pdem", "campaign", "run", str(p), "--cores", "2"],
+                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, cwd=ROOT, env=env)
+    try:
+        wait_for_steps([out / "seed-7" / "pdem.log"], proc)
+        proc.send_signal(signal.SIGTERM)
+        text, _ = proc.communicate(timeout=120)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    assert proc.returncode == 3, text
+    log = (out / "seed-7" / "pdem.log").read_text()
+    assert "mpiexec -n 2 " in log and "on 2 rank(s)" in log and "stop signal received" in log
+    assert states(out)["seed-7"]["state"] == "stopped"
+    r = pdem_campaign("run", p)
+    assert r.returncode == 0, r.stdout + r.stderr
+    assert "resuming from" in (out / "seed-7" / "pdem.log").read_text()
+    rec = json.loads((out / "seed-7" / "run.json").read_text())
+    assert [a["exit"] for a in rec["attempts"]] == [3, 0] and rec["attempts"][1]["ranks"] == 2
+    assert rec["core_s"] == pytest.approx(2 * rec["wall_s"], abs=0.01)

@@ -46,7 +46,7 @@ def test_status_of_each_state(tmp_path, tiny, capsys):
             "seed-6": "failed", "seed-7": "pending"}
         assert rows["seed-1"]["attempts"] == 2 and rows["seed-1"]["wall_s"] == 12.0
         assert rows["seed-1"]["core_s"] == 24.0 and rows["seed-1"]["exit"] == 0
-        assert rows["seed-3"]["exit"] == 3 and "checkpointed on a signal" in rows["seed-3"]["message"]
+        assert rows["seed-3"]["exit"] == 3 and "stopped on a signal" in rows["seed-3"]["message"]
         assert "interrupted" in rows["seed-4"]["message"] and rows["seed-4"]["exit"] is None
         assert rows["seed-5"]["message"] == "pdem: unstable: step 300: overlap 0.0023 exceeds max_overlap_ratio"
         assert rows["seed-6"]["message"] == "pdem: error: checkpoint ckpt_1.h5: damaged"
