@@ -1,5 +1,6 @@
-"""Command line: ``python -m analysis box RESULTS.h5 [--out DIR]``; also ``grading``,
-``blast`` and ``track`` (each defined by its module's ``add_parser``).
+"""Command line: ``python -m analysis box RESULTS.h5 [--out DIR]``; also ``grading``, ``blast``,
+``track`` (each defined by its module's ``add_parser``), ``campaign DIR`` (`analysis.campaign`)
+and ``error-vs-runtime DIR`` (`analysis.error_vs_runtime`).
 
 This module owns the CLI only: argument parsing, the output directory and exit status. Bad
 input (not a pdem result, no complete cycle, unwritable output) exits with status 2 and one
@@ -49,6 +50,10 @@ def build_parser() -> argparse.ArgumentParser:
                                        "stiffness (default: %(default)s)")
     for module in (grading, blast, track):
         module.add_parser(sub)
+    from . import campaign, error_vs_runtime
+
+    campaign.add_parser(sub)
+    error_vs_runtime.add_parser(sub)
     return parser
 
 
@@ -77,6 +82,8 @@ def main(argv=None) -> int:
     if args.command is None:
         parser.print_help(sys.stderr)
         return EXIT_BAD_INPUT
+    if args.command in ("campaign", "error-vs-runtime"):
+        return _run_campaign(args)
     try:
         if hasattr(args, "run"):
             written = args.run(args)
@@ -87,6 +94,21 @@ def main(argv=None) -> int:
     except (ValueError, OSError) as err:
         inputs = args.results if isinstance(args.results, list) else [args.results]
         return _fail(f"{' '.join(map(str, inputs))}: {_one_line(err)}")
+    for path in written:
+        print(path)
+    return 0
+
+
+def _run_campaign(args) -> int:
+    from . import campaign, error_vs_runtime
+
+    module = campaign if args.command == "campaign" else error_vs_runtime
+    try:
+        written = module.run(args)
+    except (campaign.CampaignError, ResultFileError) as err:
+        return _fail(str(err))
+    except (ValueError, OSError) as err:
+        return _fail(f"{args.dir}: {_one_line(err)}")
     for path in written:
         print(path)
     return 0

@@ -138,7 +138,7 @@ def run_mpi_case(n, steps):
     wall = time.perf_counter() - t0
     p = sim.particles
     split = {k: comm.allreduce_max(v) for k, v in sim.timers.seconds.items()}
-    nbytes = p.bytes_per_particle() * p.n_total + sum(c.bytes() for c in (sim.kind("sphere_sphere").contacts, sim.kind("sphere_wall").contacts) if c is not None)
+    nbytes = p.bytes_per_particle() * p.n_total + sum(k.contacts.bytes() for k in sim.kinds)
     nbytes = comm.allreduce_sum_int(int(nbytes))
     owned = comm.allreduce_sum_int(int(p.n_local))
     ghosts = comm.allreduce_sum_int(int(p.n_ghost))
@@ -179,7 +179,7 @@ def run_case(n, threads, steps):
     wall = time.perf_counter() - t0
     p = sim.particles
     split = dict(sim.timers.seconds)
-    nbytes = p.bytes_per_particle() * p.n_total + sum(c.bytes() for c in (sim.kind("sphere_sphere").contacts, sim.kind("sphere_wall").contacts) if c is not None)
+    nbytes = p.bytes_per_particle() * p.n_total + sum(k.contacts.bytes() for k in sim.kinds)
     return {"case": f"settled_bed_{n}", "n_particles": int(n), "ranks": 1, "threads": threads, "steps": steps,
             "wall_s": wall, "particle_steps_per_s": n * steps / wall,
             "contacts_per_particle": sim.contacts_per_particle(), "bytes_per_particle": nbytes / n,

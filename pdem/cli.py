@@ -1,4 +1,5 @@
-"""The `pdem` command line: ``python -m pdem run SCENE.toml --out DIR``.
+"""The `pdem` command line: ``python -m pdem run SCENE.toml --out DIR``, ``python -m pdem campaign ...``
+(`pdem.campaign`).
 
 `pdem run` reads the scene file, finds its scene in the registry (`pdem.scenes`; a file without
 a scene table is a plain scene, `pdem.driver.plain`) and runs it on this process's ranks. Bad
@@ -39,6 +40,12 @@ def main(argv=None):
                    help="override run.steps (the total of the run: a resumed run continues up to it)")
     r.add_argument("--fresh", action="store_true",
                    help="ignore and remove the checkpoints in OUT/checkpoints and start from step 0")
+    sub.add_parser("campaign", help="campaigns of runs: expand, run, slurm, status (docs/campaigns.md)", add_help=False)
+    argv = sys.argv[1:] if argv is None else list(argv)
+    if argv[:1] == ["campaign"]:  # its own parser (pdem.campaign.cli)
+        from .campaign import main as campaign_main
+
+        return campaign_main(argv[1:])
     args = ap.parse_args(argv)
     if args.command == "run":
         from pathlib import Path

@@ -72,6 +72,7 @@ DEFAULTS = {
 # ---------------------------------------------------------------------------- settings
 def box_settings(doc):
     """The [box_test] table with defaults, checked (one-line InputError naming the key)."""
+    check_keys("scene file", doc, {"simulation", "run", "materials", "box_test"})
     given = doc["box_test"]
     check_keys("box_test", given, set(DEFAULTS))
     c = {**DEFAULTS, **given}

@@ -1,0 +1,139 @@
+"""The campaign directory: its manifest and one directory per member, written idempotently.
+
+Owns the file layout (names below) and `write_campaign`, which expands a parsed campaign into
+its directory. Layout of OUT (the campaign's ``out``)::
+
+    OUT/campaign.json          manifest: format "pdem-campaign" v1, name, base, seed_key, varied
+                               keys, [analysis] defaults, members (name, dir, params, ranks, threads)
+    OUT/<member>/scene.toml    the member's resolved scene (base + overrides), never rewritten
+    OUT/<member>/member.json   campaign, name, params, overrides
+    OUT/<member>/run.json      written by the runner: one entry per attempt (`pdem.campaign.record`)
+    OUT/<member>/pdem.log      stdout and stderr of every attempt, appended
+    OUT/<member>/...           what ``pdem run`` writes there (results.h5, checkpoints/, ...)
+
+Expanding again changes nothing (files whose content would not change are not rewritten) and
+adds members that are new in the campaign file. It refuses, before writing anything, a
+directory that holds another campaign (manifest name) or that is not a campaign directory, and
+a member whose scene or parameters would change (its results would no longer match its scene).
+"""
+import json
+import os
+from pathlib import Path
+
+from ..errors import InputError
+from .spec import jsonable
+from .tomlw import dumps
+
+MANIFEST = "campaign.json"
+SCENE = "scene.toml"
+MEMBER = "member.json"
+RUN = "run.json"
+LOG = "pdem.log"
+LOCK = ".lock"
+FORMAT = "pdem-campaign"
+VERSION = 1
+
+
+def write_text_if_changed(path, text):
+    """Write ``text`` atomically unless the file already holds exactly it; True if written."""
+    path = Path(path)
+    if path.exists() and path.read_text() == text:
+        return False
+    tmp = path.with_name(path.name + ".tmp")
+    tmp.write_text(text)
+    os.replace(tmp, path)
+    return True
+
+
+def json_text(obj):
+    return json.dumps(obj, indent=1, sort_keys=False) + "\n"
+
+
+def scene_text(camp, m):
+    sets = "; ".join(f"{k} = {v!r}" for k, v in m.overrides.items()) or "nothing"
+    header = (f"member {m.name} of campaign {camp.name} (written by pdem campaign; do not edit)\n"
+              f"base scene: {camp.base_text}\nset: {sets}")
+    return dumps(m.doc, header=header)
+
+
+def member_json(camp, m):
+    return json_text({"campaign": camp.name, "name": m.name, "params": jsonable(m.params),
+                      "overrides": jsonable(m.overrides)})
+
+
+def manifest(camp):
+    return {"format": FORMAT, "version": VERSION, "name": camp.name, "campaign_file": str(camp.path),
+            "base": str(camp.base), "seed_key": camp.seed_key, "varied": camp.varied, "cases": camp.has_cases,
+            "analysis": jsonable(camp.analysis),
+            "members": [{"name": m.name, "dir": m.name, "params": jsonable(m.params), "ranks": m.ranks,
+                         "threads": m.threads} for m in camp.members]}
+
+
+def read_manifest(out):
+    """The manifest of the campaign directory ``out`` (InputError if it has none or a bad one)."""
+    p = Path(out) / MANIFEST
+    try:
+        man = json.loads(p.read_text())
+    except FileNotFoundError:
+        raise InputError(f"{out}: not a campaign directory (no {MANIFEST}); expand the campaign first") from None
+    except ValueError as exc:
+        raise InputError(f"{p}: not valid JSON ({exc})") from None
+    if not isinstance(man, dict) or man.get("format") != FORMAT:
+        raise InputError(f"{p}: not a pdem campaign manifest (format is not {FORMAT!r})")
+    if man.get("version") != VERSION:
+        raise InputError(f"{p}: manifest version {man.get('version')!r} not supported (this pdem reads {VERSION})")
+    return man
+
+
+def write_campaign(camp, log=print):
+    """Expand ``camp`` into its directory (idempotent); returns the manifest."""
+    out = Path(camp.out)
+    if out.exists() and not out.is_dir():
+        raise InputError(f"{out}: exists and is not a directory")
+    old = None
+    if (out / MANIFEST).exists():
+        old = read_manifest(out)
+        if old.get("name") != camp.name:
+            raise InputError(f"{out}: holds the members of campaign {old.get('name')!r} ({MANIFEST}), not of "
+                             f"{camp.name!r}; give this campaign another out directory")
+    elif out.exists() and any(out.iterdir()):
+        raise InputError(f"{out}: exists, is not empty and is not a campaign directory (no {MANIFEST}); "
+                         "give the campaign another out directory")
+    plan = []
+    for m in camp.members:
+        d = out / m.name
+        texts = {SCENE: scene_text(camp, m), MEMBER: member_json(camp, m)}
+        if (d / MEMBER).exists():
+            try:
+                owner = json.loads((d / MEMBER).read_text()).get("campaign")
+            except ValueError:
+                owner = None
+            if owner != camp.name:
+                raise InputError(f"{d}: belongs to campaign {owner!r} ({MEMBER}), not {camp.name!r}; "
+                                 "give this campaign another out directory")
+        for fname, text in texts.items():
+            if (d / fname).exists() and (d / fname).read_text() != text:
+                what = "its scene" if fname == SCENE else "its parameters"
+                raise InputError(f"{d}: {what} ({fname}) differ from what {camp.path.name} expands to now "
+                                 "(the campaign or its base scene changed since it was expanded); members are never "
+                                 "overwritten: give the campaign another out directory, or remove that member's "
+                                 "directory")
+        plan.append((d, texts))
+    out.mkdir(parents=True, exist_ok=True)
+    new = 0
+    for d, texts in plan:
+        if not d.exists():
+            new += 1
+        d.mkdir(exist_ok=True)
+        for fname, text in texts.items():
+            write_text_if_changed(d / fname, text)
+    man = manifest(camp)
+    if old is not None:
+        dropped = [e["name"] for e in old.get("members", []) if e["name"] not in {m.name for m in camp.members}]
+        if dropped:
+            log(f"{out}: {len(dropped)} member(s) no longer in {camp.path.name}, left alone and out of the manifest: "
+                + ", ".join(dropped))
+    write_text_if_changed(out / MANIFEST, json_text(man))
+    if new:
+        log(f"{out}: {new} new member(s) of campaign {camp.name} ({len(camp.members)} in all)")
+    return man

@@ -1,0 +1,130 @@
+"""What happened to a member: its run record (run.json), its lock and its state.
+
+Owns the run record and the states of `STATES`. ``run.json`` holds one entry per attempt
+(``start``, ``end`` (ISO times, ``end`` null while it runs), ``wall_s``, ``exit``, ``ranks``,
+``threads``, ``core_s`` = wall × ranks × threads, ``host``, ``launcher``, ``slurm_job``) and the
+totals over attempts (``wall_s``, ``core_s``, the last ``exit``), which the error-vs-runtime
+report reads as the member's cost. A member being run holds an exclusive `flock` on
+``<member>/.lock`` (inherited by its processes), so any process can tell that it is running.
+
+States: done (last exit 0), running (locked), stopped (last exit 3: checkpointed on a signal,
+or an attempt with no exit recorded: the runner itself was killed; both resume), failed (any
+other exit; the message is the last ``pdem: error``/``pdem: unstable`` line of its log),
+pending (never started).
+"""
+import datetime as _dt
+import fcntl
+import json
+import os
+import socket
+from pathlib import Path
+
+from .layout import LOCK, LOG, RUN, json_text, write_text_if_changed
+
+STATES = ("done", "running", "stopped", "failed", "pending")
+EXIT_DONE, EXIT_STOPPED = 0, 3
+ATTEMPT_MARK = "=== pdem campaign: attempt"
+
+
+def now():
+    return _dt.datetime.now().astimezone().isoformat(timespec="seconds")
+
+
+def read_run(d):
+    """The run record of member directory ``d`` (None if it has none or it is unreadable)."""
+    try:
+        rec = json.loads((Path(d) / RUN).read_text())
+    except (FileNotFoundError, ValueError):
+        return None
+    return rec if isinstance(rec, dict) and isinstance(rec.get("attempts"), list) else None
+
+
+def _totals(rec):
+    ended = [a for a in rec["attempts"] if a.get("end")]
+    rec["wall_s"] = sum(a["wall_s"] for a in ended)
+    rec["core_s"] = sum(a["core_s"] for a in ended)
+    rec["exit"] = rec["attempts"][-1].get("exit") if rec["attempts"] else None
+    return rec
+
+
+def start_attempt(d, name, ranks, threads, launcher):
+    """Append a started attempt to run.json and a marker line to the log; returns the record."""
+    d = Path(d)
+    rec = read_run(d) or {"member": name, "attempts": []}
+    job = os.environ.get("SLURM_ARRAY_JOB_ID")
+    slurm_job = f"{job}_{os.environ.get('SLURM_ARRAY_TASK_ID')}" if job else os.environ.get("SLURM_JOB_ID")
+    rec["attempts"].append({"start": now(), "end": None, "wall_s": None, "exit": None, "ranks": ranks,
+                            "threads": threads, "core_s": None, "host": socket.gethostname(), "pid": os.getpid(),
+                            "launcher": launcher, "slurm_job": slurm_job})
+    write_text_if_changed(d / RUN, json_text(_totals(rec)))
+    with open(d / LOG, "a") as fh:
+        fh.write(f"{ATTEMPT_MARK} {len(rec['attempts'])} started {rec['attempts'][-1]['start']} on "
+                 f"{rec['attempts'][-1]['host']}: {ranks} rank(s) x {threads} thread(s) ===\n")
+    return rec
+
+
+def end_attempt(d, rec, exit_status, wall_s):
+    """Record the end of the last attempt (exit status, wall time [s], core-seconds)."""
+    a = rec["attempts"][-1]
+    a.update(end=now(), exit=int(exit_status), wall_s=round(float(wall_s), 3),
+             core_s=round(float(wall_s) * a["ranks"] * a["threads"], 3))
+    write_text_if_changed(Path(d) / RUN, json_text(_totals(rec)))
+    return rec
+
+
+def take_lock(d):
+    """An open file holding the exclusive lock of member directory ``d``, or None if another
+    process holds it. Keep the file open while the member runs (and let its processes inherit it)."""
+    fh = open(Path(d) / LOCK, "a")
+    try:
+        fcntl.flock(fh.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except BlockingIOError:
+        fh.close()
+        return None
+    return fh
+
+
+def is_locked(d):
+    """True if some process holds the lock of member directory ``d`` (it is running)."""
+    p = Path(d) / LOCK
+    if not p.exists():
+        return False
+    with open(p, "a") as fh:
+        try:
+            fcntl.flock(fh.fileno(), fcntl.LOCK_SH | fcntl.LOCK_NB)
+        except BlockingIOError:
+            return True
+        fcntl.flock(fh.fileno(), fcntl.LOCK_UN)
+    return False
+
+
+def failure_message(d):
+    """The last ``pdem: error``/``pdem: unstable`` line of the member's last attempt (else the
+    last line of its log)."""
+    try:
+        text = (Path(d) / LOG).read_text(errors="replace")
+    except FileNotFoundError:
+        return ""
+    last = text.rsplit(ATTEMPT_MARK, 1)[-1].splitlines()[1:]
+    lines = [x.strip() for x in last if x.strip()]
+    tagged = [x for x in lines if x.startswith(("pdem: error", "pdem: unstable"))]
+    return tagged[-1] if tagged else (lines[-1] if lines else "")
+
+
+def member_state(d):
+    """(state, record or None, message) of member directory ``d``."""
+    d = Path(d)
+    rec = read_run(d)
+    if is_locked(d):
+        return "running", rec, ""
+    if rec is None or not rec["attempts"]:
+        return "pending", rec, ""
+    a = rec["attempts"][-1]
+    if a.get("end") is None:
+        return "stopped", rec, ("interrupted: no exit status recorded (the runner was killed); runs again from its "
+                                "checkpoint")
+    if a["exit"] == EXIT_DONE:
+        return "done", rec, ""
+    if a["exit"] == EXIT_STOPPED:
+        return "stopped", rec, "stopped on a signal (exit 3); runs again from its newest checkpoint"
+    return "failed", rec, failure_message(d) or f"exit status {a['exit']}"
