@@ -79,6 +79,10 @@ class CheckpointError(RuntimeError):
         super().__init__(f"{self.path.name}: {self.reason}")
 
 
+class CheckpointWriteError(CheckpointError):
+    """Writing a checkpoint failed (disk full, unwritable directory ...); raised on every rank."""
+
+
 def checkpoint_name(step: int) -> str:
     """File name of the checkpoint at ``step``."""
     return f"ckpt_{int(step):012d}.h5"
@@ -308,8 +312,8 @@ def write_checkpoint(directory, step: int, tables: dict, meta: dict, comm, keep:
     outcome = comm.bcast(outcome)
     if outcome[0] != "ok":
         if comm.rank == 0:
-            raise CheckpointError(final, outcome[1]) from error
-        raise CheckpointError(final, outcome[1])
+            raise CheckpointWriteError(final, outcome[1]) from error
+        raise CheckpointWriteError(final, outcome[1])
     return Path(outcome[1])
 
 
