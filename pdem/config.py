@@ -7,7 +7,8 @@ Values are typed strictly: numbers are numbers (``true`` is not 1), booleans are
 
     [simulation]   law ("linear"), dt ("auto" or [s]), damping, gravity [m/s²], skin [m],
                    dt_safety, dt_interval, pwave_factor, check_interval, max_overlap_ratio,
-                   energy_check, allow_initial_overlap, slab_axis ("x"|"y"|"z")
+                   energy_check, allow_initial_overlap, slab_axis ("x"|"y"|"z"),
+                   domain ([[x, y, z], [x, y, z]] [m]: a body outside stops the run)
     [run]          steps, progress_every, output_every, snapshot_every, checkpoint_every,
                    checkpoint_every_s, checkpoint_keep, kind
     [materials.NAME] density [kg/m³] and the law's keys (linear: young [Pa], poisson [-],
@@ -26,7 +27,7 @@ from .scene import Scene
 from .validate import number
 
 SIMULATION_KEYS = {"law", "dt", "damping", "gravity", "skin", "dt_safety", "dt_interval", "pwave_factor",
-                   "check_interval", "max_overlap_ratio", "energy_check", "allow_initial_overlap", "slab_axis"}
+                   "check_interval", "max_overlap_ratio", "energy_check", "allow_initial_overlap", "slab_axis", "domain"}
 RUN_DEFAULTS = {"steps": 1000, "progress_every": 1000, "output_every": 100, "snapshot_every": 0, "checkpoint_every": 0,
                 "checkpoint_every_s": 0.0, "checkpoint_keep": 3, "kind": "scene"}
 WALL_KEYS = {"axis", "position", "material", "sense", "velocity"}

@@ -190,7 +190,8 @@ def _write_file(final: Path, step: int, tables: dict, meta: dict, meta_json: str
     with atomic_path(final) as tmp:
         # HDF5 1.10 file format: its superblock and object headers carry checksums, so damaged
         # metadata is refused instead of misread (readable by any HDF5 >= 1.10, h5py >= 2.8).
-        with open_h5(tmp, "w", libver=("v110", "v110")) as f:
+        payload = sum(a.nbytes for cols in tables.values() for a in cols.values()) + len(meta_json)
+        with open_h5(tmp, "w", need=payload, libver=("v110", "v110")) as f:
             f.attrs["schema"] = _text(SCHEMA)
             f.attrs["schema_version"] = np.int64(SCHEMA_VERSION)
             f.attrs["step"] = np.int64(step)
