@@ -135,7 +135,7 @@ def first_overlaps(n, pi, pj, pos, radius, other_f, other_i):
     worst = 0.0
     row = -1
     for p in range(n):
-        status, nx, ny, nz, pen = GEOM_CONTACT(True, pi[p], pj[p], pos, radius, other_f, other_i)  # noqa: F821
+        status, _, _, _, pen = GEOM_CONTACT(True, pi[p], pj[p], pos, radius, other_f, other_i)  # noqa: F821
         if status == CONTACT and pen > worst:
             worst = pen
             row = p
