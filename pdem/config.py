@@ -93,8 +93,8 @@ def scene_from_dict(doc, scene_tables=()):
     """Build a Scene from a parsed plain scene file (dict). ``scene_tables``: the tables of
     registered scenes, only named in the error for an unknown table."""
     check_keys("scene file", doc, TOP_KEYS | set(scene_tables))
+    check_keys("simulation", doc.get("simulation", {}), SIMULATION_KEYS)
     sim = dict(doc.get("simulation", {}))
-    check_keys("simulation", sim, SIMULATION_KEYS)
     if "slab_axis" in sim:
         if not isinstance(sim["slab_axis"], str) or sim["slab_axis"] not in AXES:
             raise InputError(f"simulation.slab_axis = {sim['slab_axis']!r}: must be one of x, y, z")

@@ -69,3 +69,41 @@ def test_cli_exit_status_2_and_one_line(tmp_path):
     assert out.returncode == 2
     lines = [l for l in out.stderr.splitlines() if l.strip()]
     assert len(lines) == 1 and "simulation.gravty" in lines[0] and "unknown key" in lines[0], out.stderr
+
+
+@pytest.mark.parametrize("changes, words", [
+    ({"simulation": [1, 2]}, ["simulation", "must be a table"]),
+    ({"walls": 5}, ["walls", "array of tables"]),
+    ({"walls": [{"axis": "z", "position": 0.0, "material": "ballast", "sense": True}]}, ["sense", "True"]),
+    ({"walls": [{"axis": "z", "position": True, "material": "ballast"}]}, ["position", "True"]),
+    ({"simulation": {"dt": True}}, ["dt", "True"]),
+    ({"simulation": {"energy_check": "no"}}, ["energy_check", "'no'", "true or false"]),
+    ({"simulation": {"allow_initial_overlap": "false"}}, ["allow_initial_overlap", "'false'"]),
+    ({"simulation": {"domain": [[0, 0, 0], [1, 1]]}}, ["domain"]),
+    ({"spheres": [{"pos": [[0.0, 0.0]], "radius": 0.01, "material": "ballast"}]}, ["spheres.pos", "shape (1, 2)"]),
+    ({"spheres": [{"pos": [[0, 0, 0], [0.1, 0, 0]], "radius": [0.01] * 3, "material": "ballast"}]}, ["radius", "2 numbers"]),
+    ({"spheres": [{"pos": [[0.0, "a", 0.0]], "radius": 0.01, "material": "ballast"}]}, ["spheres.pos", "'a'"]),
+    ({"spheres": [{"pos": [[0, 0, 0]], "radius": 0.01, "material": "ballast", "fixed": "false"}]}, ["fixed", "'false'"]),
+    ({"materials": {"ballast": {"density": 2600.0, "young": True, "poisson": 0.3, "friction_angle": 0.5}}},
+     ["young", "True"]),
+])
+def test_strict_types_one_line(changes, words):
+    """Numbers are numbers (not booleans), booleans are booleans (not strings), shapes are checked."""
+    with pytest.raises(pdem.InputError) as exc:
+        scene_from_dict(_doc(**changes)).build()
+    msg = str(exc.value)
+    assert "\n" not in msg
+    for w in words:
+        assert w in msg, (w, msg)
+
+
+@pytest.mark.parametrize("content", [b"\xff\xfe[\x00r\x00u\x00n\x00]\x00", bytes(range(256))])
+def test_binary_or_utf16_scene_file_one_line(tmp_path, content):
+    from pdem.config import load_toml
+
+    p = tmp_path / "scene.toml"
+    p.write_bytes(content)
+    with pytest.raises(pdem.InputError, match="not a text file in UTF-8"):
+        load_toml(p)
+    with pytest.raises(pdem.InputError, match="is a directory"):
+        load_toml(tmp_path)

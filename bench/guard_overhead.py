@@ -1,0 +1,76 @@
+"""Cost of the runaway guard (`pdem.guard`): the same dense bed stepped by two source trees,
+alternating, one numba thread.
+
+    python bench/guard_overhead.py BEFORE_SRC AFTER_SRC [--n 50000] [--steps 300] [--rounds 3]
+
+BEFORE_SRC and AFTER_SRC are checkouts of pdem (e.g. ``git archive <commit> | tar -x -C DIR``);
+each case runs in a fresh process with that tree first on sys.path and its own numba cache
+(``DIR/.numba_cache``). The bed: n spheres r = 10 mm on a cubic lattice 0.5 % closer than
+touching (six contacts each, a dense pack's count), E = 2.8e6 Pa, Cundall damping 0.3, gravity,
+a floor and four walls; `--steps` steps are timed after 30 warm-up steps (compilation). Prints
+the wall time per step of each run and the median per tree.
+"""
+import argparse
+import json
+import os
+import statistics
+import subprocess
+import sys
+
+CASE = r"""
+import json, sys, time
+import numpy as np
+import numba
+numba.set_num_threads(1)
+from pdem import Scene
+n, steps = int(sys.argv[1]), int(sys.argv[2])
+r, a = 0.01, 0.0199
+nx, ny = 50, 25
+nz = -(-n // (nx * ny))
+g = np.stack(np.meshgrid(np.arange(nx), np.arange(ny), np.arange(nz), indexing="ij"), -1).reshape(-1, 3)[:n]
+pos = (g + 0.5) * a + np.array([0.0, 0.0, r])
+sc = Scene(dt="auto", damping=0.3, gravity=(0.0, 0.0, -9.81), allow_initial_overlap=True)
+m = sc.material(density=2600.0, young=2.8e6, poisson=0.3, friction_angle=0.5)
+w = sc.material(density=7850.0, young=2.8e7, poisson=0.25, friction_angle=0.5)
+sc.add_spheres(pos, r, m)
+sc.add_wall(2, 0.0, w, sense=1)
+sc.add_wall(0, 0.0, w, sense=1)
+sc.add_wall(0, nx * a + 2 * r, w, sense=-1)
+sc.add_wall(1, 0.0, w, sense=1)
+sc.add_wall(1, ny * a + 2 * r, w, sense=-1)
+sim = sc.build()
+sim.run(30)
+t0 = time.perf_counter()
+sim.run(steps)
+print(json.dumps({"s_per_step": (time.perf_counter() - t0) / steps, "pdem": sys.modules["pdem"].__file__}))
+"""
+
+
+def one(src, n, steps):
+    env = dict(os.environ, PYTHONPATH=os.path.abspath(src), NUMBA_NUM_THREADS="1", OMP_NUM_THREADS="1",
+               NUMBA_CACHE_DIR=os.path.join(os.path.abspath(src), ".numba_cache"))
+    out = subprocess.run([sys.executable, "-c", CASE, str(n), str(steps)], env=env, capture_output=True, text=True,
+                         check=True, cwd=os.path.abspath(src))
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("before")
+    ap.add_argument("after")
+    ap.add_argument("--n", type=int, default=50000)
+    ap.add_argument("--steps", type=int, default=300)
+    ap.add_argument("--rounds", type=int, default=3)
+    args = ap.parse_args()
+    times = {"before": [], "after": []}
+    for k in range(args.rounds):
+        for name in ("before", "after") if k % 2 == 0 else ("after", "before"):
+            rec = one(getattr(args, name), args.n, args.steps)
+            times[name].append(rec["s_per_step"])
+            print(f"round {k} {name:6s} {1e3 * rec['s_per_step']:8.3f} ms/step  ({rec['pdem']})", flush=True)
+    b, a = statistics.median(times["before"]), statistics.median(times["after"])
+    print(f"median before {1e3 * b:.3f} ms/step, after {1e3 * a:.3f} ms/step: {100 * (a / b - 1):+.2f} %")
+
+
+if __name__ == "__main__":
+    main()
