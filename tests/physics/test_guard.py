@@ -155,3 +155,32 @@ def test_guard_changes_no_trajectory():
     b.run(400)
     for k in ("pos", "vel", "angvel", "force"):
         assert np.array_equal(getattr(a.particles, k)[:20], getattr(b.particles, k)[:20]), k
+
+
+@pytest.mark.parametrize("threads", [1, 2])
+def test_loop_overlap_equals_the_overlap_table(threads):
+    """The max reduction of the force loops (serial twin and, above PARALLEL_MIN rows with two
+    threads, the parallel one) is the largest overlap / smaller radius of the contact table."""
+    import numba
+
+    from pdem import diagnostics
+
+    if threads > numba.config.NUMBA_NUM_THREADS:
+        pytest.skip(f"numba allows {numba.config.NUMBA_NUM_THREADS} thread(s) here (NUMBA_NUM_THREADS)")
+    before = numba.get_num_threads()
+    numba.set_num_threads(threads)
+    try:
+        n = 6000  # > PARALLEL_MIN candidate rows
+        g = np.stack(np.meshgrid(np.arange(30), np.arange(20), np.arange(10), indexing="ij"), -1).reshape(-1, 3)
+        rng = np.random.default_rng(4)
+        sc = Scene(dt="auto", damping=0.3, gravity=(0.0, 0.0, -9.81), allow_initial_overlap=True)
+        m = sc.material(density=RHO, young=E, poisson=0.3, friction_angle=0.5)
+        sc.add_spheres((g + 0.5) * 0.0198 + rng.uniform(-1e-4, 1e-4, (n, 3)), R * rng.uniform(0.9, 1.1, n), m)
+        sc.add_wall(2, 0.0, m, sense=1)
+        sim = sc.build()
+        sim.run(3)
+        assert sim.kind("sphere_sphere").contacts.n > 4096
+        worst = max(k.worst_overlap for k in sim.kinds)
+        assert worst > 0 and worst == diagnostics.max_overlap_ratio(sim)[0]
+    finally:
+        numba.set_num_threads(before)
