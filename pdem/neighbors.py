@@ -282,18 +282,6 @@ def build_facet_candidates(pos, radius, n_local, skin, facet_geom, facet_vertice
     return candidates_from_mask(near)
 
 
-@kernel(size_arg=2)
-def max_displacement(pos, pos_at_rebuild, n):
-    """Largest distance a body moved since the last rebuild [m]."""
-    m = 0.0
-    for k in prange(n):
-        dx = pos[k, 0] - pos_at_rebuild[k, 0]
-        dy = pos[k, 1] - pos_at_rebuild[k, 1]
-        dz = pos[k, 2] - pos_at_rebuild[k, 2]
-        m = max(m, dx * dx + dy * dy + dz * dz)
-    return sqrt(m)
-
-
 @kernel(size_arg=4)
 def max_motion(pos, pos_at_rebuild, vel, radius, n):
     """(largest distance a body moved since the last rebuild [m], largest |v|/r [1/s]): the

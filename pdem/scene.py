@@ -262,12 +262,13 @@ class Scene:
         particles = Particles(len(cols["gid"]) if domain.comm.size == 1 else 16)
         domain.distribute(particles, cols)
         guard = Guard.for_scene(self.walls, cols["pos"], s.get("domain"))
-        sim = Simulation(guard=guard, particles=particles, law=self.law, materials=self.materials, walls=self.walls,
-                          facets=self.facets, boxes=copy.deepcopy(self.boxes), gravity=s["gravity"], damping=s["damping"],
-                          dt=None if s["dt"] in ("auto", None) else s["dt"], dt_safety=s["dt_safety"],
-                          dt_interval=s["dt_interval"], pwave_factor=s["pwave_factor"], skin=skin,
-                          check_interval=s["check_interval"], max_overlap_ratio=s["max_overlap_ratio"],
-                          energy_check=s["energy_check"], domain=domain, spec=json.loads(json.dumps(self.spec())))
+        sim = Simulation(particles=particles, law=self.law, materials=self.materials, walls=self.walls,
+                         facets=self.facets, boxes=copy.deepcopy(self.boxes), gravity=s["gravity"], damping=s["damping"],
+                         dt=None if s["dt"] in ("auto", None) else s["dt"], dt_safety=s["dt_safety"],
+                         dt_interval=s["dt_interval"], pwave_factor=s["pwave_factor"], skin=skin,
+                         check_interval=s["check_interval"], max_overlap_ratio=s["max_overlap_ratio"],
+                         energy_check=s["energy_check"], domain=domain, spec=json.loads(json.dumps(self.spec())),
+                         guard=guard)
         if not s["allow_initial_overlap"]:
             check_initial_overlaps(sim)
         return sim

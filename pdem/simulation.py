@@ -18,8 +18,8 @@ import time as _time
 import numpy as np
 
 from . import checkpoint_state, diagnostics, integrator, neighbors, timestep
-from .guard import Guard
 from .contact.kinds import make_kinds
+from .guard import Guard
 from .state import DOF_ALL, FIELDS
 
 TIMERS = ("neighbours", "contacts", "integration", "communication", "output", "other")

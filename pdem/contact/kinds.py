@@ -48,8 +48,9 @@ class ContactKind:
         """Run the force loop over every candidate row."""
         p, c = sim.particles, self.contacts
         other_f, other_i = self.kernel_arrays()
-        self.worst_overlap = self.loop(c.n, c.i, c.j, c.state, c.params, c.history, c.force, c.torque_i, c.torque_j, c.overlap, p.pos,
-                  p.vel, p.angvel, p.radius, p.material, p.mass, sim.props, other_f, other_i, sim.dt, sim.step)
+        self.worst_overlap = self.loop(c.n, c.i, c.j, c.state, c.params, c.history, c.force, c.torque_i, c.torque_j,
+                                       c.overlap, p.pos, p.vel, p.angvel, p.radius, p.material, p.mass, sim.props,
+                                       other_f, other_i, sim.dt, sim.step)
 
     def owned_rows(self, n_local):
         """Real contact rows counted by this rank (each contact once over all ranks)."""
