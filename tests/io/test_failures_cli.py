@@ -18,7 +18,6 @@ import textwrap
 from pathlib import Path
 
 import pytest
-
 from pdem_cli import MPIEXEC
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -89,7 +88,7 @@ def run(n_ranks, argv, tmp_path, env=None, tool=None, timeout=ENDED_WITHIN):
     if n_ranks > 1:
         cmd = [str(MPIEXEC), "-n", str(n_ranks)] + cmd
     e = dict(os.environ, OMP_NUM_THREADS="1", NUMBA_NUM_THREADS="1", **(env or {}))
-    r = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, env=e, cwd=tmp_path)
+    r = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, env=e, cwd=tmp_path, check=False)
     return r.returncode, r.stdout, r.stderr
 
 
@@ -147,7 +146,7 @@ def test_exception_on_one_rank_ends_the_job(warm, tmp_path, n_ranks, kind, statu
 ])
 def test_bad_input_once_status_2(tmp_path, n_ranks, edit, words):
     s = scene(tmp_path, SCENE.replace(*edit))
-    rc, out, err = run(n_ranks, ["run", str(s), "--out", "out"], tmp_path)
+    rc, _, err = run(n_ranks, ["run", str(s), "--out", "out"], tmp_path)
     assert rc == 2, (rc, err[-2000:])
     lines = pdem_lines(err)
     assert len(lines) == 1 and "Traceback" not in err, err[-2000:]
@@ -236,7 +235,8 @@ def small_disk(tmp_path):
     """A 400 KiB tmpfs (needs root: mount). Skipped, with the reason, where it cannot be mounted."""
     d = tmp_path / "disk"
     d.mkdir()
-    r = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=400k", "tmpfs", str(d)], capture_output=True, text=True)
+    r = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=400k", "tmpfs", str(d)], capture_output=True, text=True,
+                       check=False)
     if r.returncode != 0:
         pytest.skip(f"cannot mount a small tmpfs to fill ({r.stderr.strip() or 'mount failed'}); "
                     "test_no_space_at_the_first_write covers the path")
