@@ -2,6 +2,7 @@
 alternating, one numba thread.
 
     python bench/guard_overhead.py BEFORE_SRC AFTER_SRC [--n 50000] [--steps 300] [--rounds 3]
+    python bench/guard_overhead.py --pass-only [--n 50000]
 
 BEFORE_SRC and AFTER_SRC are checkouts of pdem (e.g. ``git archive <commit> | tar -x -C DIR``);
 each case runs in a fresh process with that tree first on sys.path and its own numba cache
@@ -10,6 +11,11 @@ touching (six contacts each, a dense pack's count), E = 2.8e6 Pa, Cundall dampin
 a floor and four walls; `--steps` steps are timed after 30 warm-up steps (compilation). Prints
 for each run the fastest of six chunks of steps (per step) and the fastest of six timings of the
 force loops alone (`Simulation.compute_forces`, 20 calls each), and the medians per tree.
+
+``--pass-only``: the one pass that does more work, timed alone in this process: the rebuild
+test's loop over the bodies before (largest displacement since the rebuild) and after
+(`pdem.neighbors.max_motion`: also the largest |v|/r, reading v and r too), serial, n bodies;
+median over 10 rounds of the fastest of 5 × 50 calls.
 """
 import argparse
 import json
@@ -64,7 +70,49 @@ def one(src, n, steps):
     return json.loads(out.stdout.strip().splitlines()[-1])
 
 
+def pass_only(n):
+    import time
+
+    import numpy as np
+    from numba import njit
+
+    from pdem.neighbors import max_motion
+
+    @njit
+    def before(pos, pos_at_rebuild, n):  # pdem.neighbors.max_displacement before the guard
+        m = 0.0
+        for k in range(n):
+            dx = pos[k, 0] - pos_at_rebuild[k, 0]
+            dy = pos[k, 1] - pos_at_rebuild[k, 1]
+            dz = pos[k, 2] - pos_at_rebuild[k, 2]
+            m = max(m, dx * dx + dy * dy + dz * dz)
+        return m ** 0.5
+
+    rng = np.random.default_rng(0)
+    pos = rng.random((n, 3))
+    old = pos + 1e-4 * rng.random((n, 3))
+    vel, r = 1e-3 * rng.random((n, 3)), 0.01 + 0.001 * rng.random(n)
+    after = max_motion.serial
+    before(pos, old, n)
+    after(pos, old, vel, r, n)
+    res = {"before": [], "after": []}
+    for _ in range(10):
+        for name, f, args in (("before", before, (pos, old, n)), ("after", after, (pos, old, vel, r, n))):
+            best = np.inf
+            for _ in range(5):
+                t0 = time.perf_counter()
+                for _ in range(50):
+                    f(*args)
+                best = min(best, (time.perf_counter() - t0) / 50)
+            res[name].append(best)
+    b, a = statistics.median(res["before"]), statistics.median(res["after"])
+    print(f"rebuild-test pass at {n} bodies: before {1e6 * b:.1f} us, after {1e6 * a:.1f} us ({1e6 * (a - b):+.1f} us)")
+
+
 def main():
+    if "--pass-only" in sys.argv:
+        n = int(sys.argv[sys.argv.index("--n") + 1]) if "--n" in sys.argv else 50000
+        return pass_only(n)
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("before")
     ap.add_argument("after")
