@@ -29,7 +29,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .campaign import (CampaignError, Quantity, _columns, _figure, _finite, _save, display, group_members,
+from .campaign import (CampaignError, Quantity, _columns, _finite, _save, display, group_members,
                        read_campaign, short_key)
 
 

@@ -2,37 +2,55 @@
 (`pdem.campaign`).
 
 `pdem run` reads the scene file, finds its scene in the registry (`pdem.scenes`; a file without
-a scene table is a plain scene, `pdem.driver.plain`) and runs it on this process's ranks. Bad
-input prints one line (the field, the value, what is allowed) and exits 2, and so does a
-checkpoint that cannot be resumed from (damaged, or written for another scene); a run stopped by
-an instability prints the cause and exits 4; a run stopped by SIGTERM/SIGUSR1 after writing a
-checkpoint exits 3 (`pdem.io.signals`).
+a scene table is a plain scene, `pdem.driver.plain`) and runs it on this process's ranks. Any
+failure on any rank ends the whole job with one line, printed once, and an exit status
+(`pdem.driver.failures`): 0 done, 1 internal error, 2 bad input (scene file, command line,
+output directory, a checkpoint or results file that cannot be continued from), 3 stopped by
+SIGTERM/SIGUSR1 after writing a checkpoint (`pdem.io.signals`), 4 unstable or runaway, 5 a
+write failed (disk full) or memory ran out.
 """
 import argparse
+import os
 import sys
 
-from .errors import EXIT_INPUT_ERROR, EXIT_INSTABILITY, InputError, InstabilityError
+from .errors import EXIT_INPUT_ERROR
+
+# environment variables through which launchers give a process its rank (to print usage errors,
+# found before MPI is set up, on one rank only)
+_RANK_VARS = ("PMI_RANK", "OMPI_COMM_WORLD_RANK", "MV2_COMM_WORLD_RANK", "SLURM_PROCID")
 
 
-def run_file(path, out, steps=None, fresh=False):
-    """Run the scene file ``path`` into ``out`` on this process's ranks; returns the exit status."""
+def run_file(path, out, steps=None, fresh=False, comm=None):
+    """Run the scene file ``path`` into ``out`` on this process's ranks; returns the exit status
+    (exceptions propagate: `pdem.driver.failures.run_guarded` turns them into statuses)."""
     from .config import load_toml
     from .driver.plain import run_scene_file
-    from .parallel.comm import configure_threads, get_comm
+    from .parallel.comm import get_comm
     from .scenes import find
+    from .validate import number
 
-    comm = get_comm()
-    configure_threads(comm)
+    comm = get_comm(comm)
+    if steps is not None:
+        steps = number("--steps", steps, 0, integer=True, allow="an integer >= 0 (the total steps of the run)")
     doc = load_toml(path)
-    name, scene = find(doc)
+    _, scene = find(doc)
     if scene is not None:
         return scene.run(path, doc, out, comm, steps=steps, fresh=fresh)
     return run_scene_file(path, doc, out, comm, steps=steps, fresh=fresh)
 
 
+class _Parser(argparse.ArgumentParser):
+    def error(self, message):
+        """Usage errors on rank 0 only (every rank parses the same command line), exit 2."""
+        if all(os.environ.get(v, "0") == "0" for v in _RANK_VARS):
+            self.print_usage(sys.stderr)
+            sys.stderr.write(f"pdem: error: {message}\n")
+        sys.exit(EXIT_INPUT_ERROR)
+
+
 def main(argv=None):
-    ap = argparse.ArgumentParser(prog="pdem", description="pdem: parallel DEM for railway ballast")
-    sub = ap.add_subparsers(dest="command", required=True)
+    ap = _Parser(prog="pdem", description="pdem: parallel DEM for railway ballast")
+    sub = ap.add_subparsers(dest="command", required=True, parser_class=_Parser)
     r = sub.add_parser("run", help="run a scene file (TOML)")
     r.add_argument("scene", help="scene file, e.g. jobs/deposition.toml")
     r.add_argument("--out", default=None, help="output directory (default runs/<scene name>)")
@@ -50,20 +68,17 @@ def main(argv=None):
     if args.command == "run":
         from pathlib import Path
 
-        out = args.out or str(Path("runs") / Path(args.scene).stem)
-        from .io.checkpoint import CheckpointError
+        from .driver.failures import run_guarded
+        from .parallel.comm import configure_threads, get_comm
 
-        try:
-            return run_file(args.scene, out, steps=args.steps, fresh=args.fresh)
-        except InputError as exc:
-            print(f"pdem: error: {exc}", file=sys.stderr)
-            return EXIT_INPUT_ERROR
-        except CheckpointError as exc:
-            print(f"pdem: error: checkpoint {exc}", file=sys.stderr)
-            return EXIT_INPUT_ERROR
-        except InstabilityError as exc:
-            print(f"pdem: unstable: {exc}", file=sys.stderr)
-            return EXIT_INSTABILITY
+        comm = get_comm()
+        out = args.out or str(Path("runs") / Path(args.scene).stem)
+
+        def run():
+            configure_threads(comm)
+            return run_file(args.scene, out, steps=args.steps, fresh=args.fresh, comm=comm)
+
+        return run_guarded(comm, run)
     return 0
 
 

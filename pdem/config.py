@@ -7,7 +7,8 @@ Values are typed strictly: numbers are numbers (``true`` is not 1), booleans are
 
     [simulation]   law ("linear"), dt ("auto" or [s]), damping, gravity [m/s²], skin [m],
                    dt_safety, dt_interval, pwave_factor, check_interval, max_overlap_ratio,
-                   energy_check, allow_initial_overlap, slab_axis ("x"|"y"|"z")
+                   energy_check, allow_initial_overlap, slab_axis ("x"|"y"|"z"),
+                   domain ([[x, y, z], [x, y, z]] [m]: a body outside stops the run)
     [run]          steps, progress_every, output_every, snapshot_every, checkpoint_every,
                    checkpoint_every_s, checkpoint_keep, kind
     [materials.NAME] density [kg/m³] and the law's keys (linear: young [Pa], poisson [-],
@@ -26,7 +27,7 @@ from .scene import Scene
 from .validate import number
 
 SIMULATION_KEYS = {"law", "dt", "damping", "gravity", "skin", "dt_safety", "dt_interval", "pwave_factor",
-                   "check_interval", "max_overlap_ratio", "energy_check", "allow_initial_overlap", "slab_axis"}
+                   "check_interval", "max_overlap_ratio", "energy_check", "allow_initial_overlap", "slab_axis", "domain"}
 RUN_DEFAULTS = {"steps": 1000, "progress_every": 1000, "output_every": 100, "snapshot_every": 0, "checkpoint_every": 0,
                 "checkpoint_every_s": 0.0, "checkpoint_keep": 3, "kind": "scene"}
 WALL_KEYS = {"axis", "position", "material", "sense", "velocity"}
@@ -92,8 +93,8 @@ def scene_from_dict(doc, scene_tables=()):
     """Build a Scene from a parsed plain scene file (dict). ``scene_tables``: the tables of
     registered scenes, only named in the error for an unknown table."""
     check_keys("scene file", doc, TOP_KEYS | set(scene_tables))
+    check_keys("simulation", doc.get("simulation", {}), SIMULATION_KEYS)
     sim = dict(doc.get("simulation", {}))
-    check_keys("simulation", sim, SIMULATION_KEYS)
     if "slab_axis" in sim:
         if not isinstance(sim["slab_axis"], str) or sim["slab_axis"] not in AXES:
             raise InputError(f"simulation.slab_axis = {sim['slab_axis']!r}: must be one of x, y, z")

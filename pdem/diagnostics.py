@@ -71,8 +71,24 @@ def max_overlap_ratio(sim):
     return worst
 
 
+def agree(comm, value, text):
+    """``text`` of the rank with the largest ``value`` (the lowest such rank): the same line on
+    every rank (collective)."""
+    best = comm.allreduce_max(float(value))
+    root = int(comm.allreduce_min(comm.rank if value == best else comm.size))
+    return comm.bcast(text if comm.rank == root else None, root=min(root, comm.size - 1))
+
+
+def worst_overlap(sim):
+    """"overlap R of the smaller radius between body gid G and X" of the largest overlap over all
+    ranks: the same text on every rank (collective)."""
+    ratio, gi, other = max_overlap_ratio(sim)
+    return agree(sim.comm, ratio, f"overlap {ratio:.3g} of the smaller radius between body gid {gi} and {other}")
+
+
 def check_stability(sim):
-    """Raise `InstabilityError` (one line: step, cause, body, Δt) if the run has blown up."""
+    """Raise `InstabilityError` (one line: step, cause, body, Δt; the same on every rank) if the
+    run has blown up or lost bodies (`pdem.guard.Guard.check_domain`)."""
     p = sim.particles
     nl = p.n_local
     bad = ~np.isfinite(p.pos[:nl]).all(axis=1) | ~np.isfinite(p.vel[:nl]).all(axis=1)
@@ -82,12 +98,12 @@ def check_stability(sim):
         raise InstabilityError(
             f"step {sim.step}: non-finite position or velocity of body gid {gid} (dt = {sim.dt:.3e} s): "
             "the time step is too large for the stiffness, or an input is not finite")
-    ratio, gi, other = max_overlap_ratio(sim)
+    sim.guard.check_domain(sim)
+    ratio, _, _ = max_overlap_ratio(sim)
     worst = sim.comm.allreduce_max(ratio)
     if worst > sim.max_overlap_ratio:
-        where = f" between body gid {gi} and {other}" if ratio == worst else ""
         raise InstabilityError(
-            f"step {sim.step}: overlap {worst:.3g} of the smaller radius{where} exceeds max_overlap_ratio = "
+            f"step {sim.step}: {worst_overlap(sim)} exceeds max_overlap_ratio = "
             f"{sim.max_overlap_ratio} (dt = {sim.dt:.3e} s): time step too large or load too high for the stiffness")
     if sim.energy_check and not sim.moving_boundaries:
         e = energy(sim)

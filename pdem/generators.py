@@ -22,6 +22,14 @@ def loose_cloud(lo, hi, n, r_mean, spread=0.0, seed=0, gap=0.05):
     """(pos[n,3], radius[n]) of n spheres in the box lo..hi [m]; raises InputError if they don't fit."""
     lo = np.asarray(lo, float)
     hi = np.asarray(hi, float)
+    # the room for the smallest possible largest radius first: a count that cannot fit is
+    # refused before arrays of its size are allocated
+    r_least = float(r_mean) * (1.0 - float(spread))
+    room = np.floor((hi - lo) / (2.0 * r_least * (1.0 + gap)))
+    if np.prod(np.maximum(room, 0.0)) < n:
+        raise InputError(f"deposition: {n} spheres of radius {r_mean:.4g} m (spread {spread:g}) do not fit in the box "
+                         f"{lo.tolist()}..{hi.tolist()} (room for at most {int(np.prod(np.maximum(room, 0.0)))}); "
+                         "enlarge the box height or use fewer spheres")
     radius = sphere_radii(n, r_mean, spread, seed)
     r_max = float(radius.max())
     a = 2.0 * r_max * (1.0 + gap)

@@ -282,16 +282,20 @@ def build_facet_candidates(pos, radius, n_local, skin, facet_geom, facet_vertice
     return candidates_from_mask(near)
 
 
-@kernel(size_arg=2)
-def max_displacement(pos, pos_at_rebuild, n):
-    """Largest distance a body moved since the last rebuild [m]."""
+@kernel(size_arg=4)
+def max_motion(pos, pos_at_rebuild, vel, radius, n):
+    """(largest distance a body moved since the last rebuild [m], largest |v|/r [1/s]): the
+    rebuild test and the runaway guard's step displacement |v|·Δt/r in one pass."""
     m = 0.0
+    w = 0.0
     for k in prange(n):
         dx = pos[k, 0] - pos_at_rebuild[k, 0]
         dy = pos[k, 1] - pos_at_rebuild[k, 1]
         dz = pos[k, 2] - pos_at_rebuild[k, 2]
         m = max(m, dx * dx + dy * dy + dz * dz)
-    return sqrt(m)
+        v2 = vel[k, 0] * vel[k, 0] + vel[k, 1] * vel[k, 1] + vel[k, 2] * vel[k, 2]
+        w = max(w, v2 / (radius[k] * radius[k]))
+    return sqrt(m), sqrt(w)
 
 
 @njit(inline="always", cache=True)

@@ -25,6 +25,7 @@ from .contact import get_law
 from .domain import SerialDomain
 from .errors import InputError
 from .facets import Facets
+from .guard import Guard, check_initial_overlaps
 from .materials import MaterialTable
 from .simulation import Simulation
 from .state import DOF_ALL, FIELDS, Particles
@@ -50,7 +51,7 @@ class Scene:
 
     def __init__(self, *, dt="auto", damping=0.0, gravity=(0.0, 0.0, 0.0), skin=None, dt_safety=0.8, dt_interval=100,
                  pwave_factor=0.5, check_interval=100, max_overlap_ratio=0.5, energy_check=True,
-                 allow_initial_overlap=False, slab_axis=0, law="linear"):
+                 allow_initial_overlap=False, slab_axis=0, law="linear", domain=None):
         self.law = get_law(law)
         if dt is not None and dt != "auto":
             dt = number("dt", dt, 0.0, lo_open=True, allow="'auto' or a number > 0 [s]")
@@ -69,6 +70,11 @@ class Scene:
             "slab_axis": slab_axis,
             "law": self.law.NAME,
         }
+        if domain is not None:  # only when declared: the spec (and checkpoints) of other scenes stay as they were
+            box = vectors("domain", domain, 2)
+            if not np.all(box[1] > box[0]):
+                raise InputError(f"domain = {box.tolist()}: must be [[x, y, z] low, [x, y, z] high] with low < high [m]")
+            self.settings["domain"] = box.tolist()
         if slab_axis not in (0, 1, 2) or isinstance(slab_axis, bool):
             raise InputError(f"slab_axis = {slab_axis!r}: must be 0, 1 or 2 (x, y, z)")
         self.materials = MaterialTable(self.law)
@@ -252,14 +258,20 @@ class Scene:
                 from .parallel.slab_domain import SlabDomain
 
                 domain = SlabDomain(comm, axis=s["slab_axis"])
+                domain.check_rank_count(cols, skin)
         particles = Particles(len(cols["gid"]) if domain.comm.size == 1 else 16)
         domain.distribute(particles, cols)
-        return Simulation(particles=particles, law=self.law, materials=self.materials, walls=self.walls,
-                          facets=self.facets, boxes=copy.deepcopy(self.boxes), gravity=s["gravity"], damping=s["damping"],
-                          dt=None if s["dt"] in ("auto", None) else s["dt"], dt_safety=s["dt_safety"],
-                          dt_interval=s["dt_interval"], pwave_factor=s["pwave_factor"], skin=skin,
-                          check_interval=s["check_interval"], max_overlap_ratio=s["max_overlap_ratio"],
-                          energy_check=s["energy_check"], domain=domain, spec=json.loads(json.dumps(self.spec())))
+        guard = Guard.for_scene(self.walls, cols["pos"], s.get("domain"))
+        sim = Simulation(particles=particles, law=self.law, materials=self.materials, walls=self.walls,
+                         facets=self.facets, boxes=copy.deepcopy(self.boxes), gravity=s["gravity"], damping=s["damping"],
+                         dt=None if s["dt"] in ("auto", None) else s["dt"], dt_safety=s["dt_safety"],
+                         dt_interval=s["dt_interval"], pwave_factor=s["pwave_factor"], skin=skin,
+                         check_interval=s["check_interval"], max_overlap_ratio=s["max_overlap_ratio"],
+                         energy_check=s["energy_check"], domain=domain, spec=json.loads(json.dumps(self.spec())),
+                         guard=guard)
+        if not s["allow_initial_overlap"]:
+            check_initial_overlaps(sim)
+        return sim
 
 
 def _broadcast(label, value, n):

@@ -5,7 +5,8 @@ every contact kind the scene has (`Simulation.kinds`: sphere pairs, then walls, 
 loops generated from the geometry and the scene's law, `pdem.contact`) → sums per body in a
 fixed order (`pdem.forces`) → leapfrog (damped only if the scene asks) → move walls, facets and
 boxes → ghost update. Δt is fixed or re-estimated every `dt_interval` steps (`pdem.timestep`);
-every `check_interval` steps the state is checked for blow-up (`pdem.diagnostics`). Global
+every `check_interval` steps the state is checked for blow-up (`pdem.diagnostics`), and every
+step for runaway bodies and overlaps (`pdem.guard`, folded into the rebuild test). Global
 reductions go through the domain's communicator (exact sums, so they do not depend on the rank
 count). Checkpoint tables: `pdem.checkpoint_state`.
 
@@ -18,6 +19,7 @@ import numpy as np
 
 from . import checkpoint_state, diagnostics, integrator, neighbors, timestep
 from .contact.kinds import make_kinds
+from .guard import Guard
 from .state import DOF_ALL, FIELDS
 
 TIMERS = ("neighbours", "contacts", "integration", "communication", "output", "other")
@@ -45,7 +47,8 @@ class Simulation:
     """Built by `pdem.scene.Scene.build`; run with `run(n_steps)`."""
 
     def __init__(self, *, particles, law, materials, walls, facets, boxes, gravity, damping, dt, dt_safety,
-                 dt_interval, pwave_factor, skin, check_interval, max_overlap_ratio, energy_check, domain, spec):
+                 dt_interval, pwave_factor, skin, check_interval, max_overlap_ratio, energy_check, domain, spec,
+                 guard=None):
         self.particles = particles
         self.law = law
         self.materials = materials
@@ -67,6 +70,7 @@ class Simulation:
         self.domain = domain
         self.comm = domain.comm
         self.spec = spec
+        self.guard = Guard() if guard is None else guard
         self.step = 0
         self.time = 0.0
         self.dt = 0.0
@@ -110,9 +114,14 @@ class Simulation:
         self.timers.add("neighbours", t0)
 
     def _needs_rebuild(self):
+        """The rebuild test (some body moved more than skin/2), with the runaway guard's step
+        displacement and overlap in the same reduction (`pdem.guard.Guard.check_step`)."""
         p = self.particles
-        moved = neighbors.max_displacement(p.pos, p.pos_at_rebuild, p.n_local) + self.boundary_moved
-        return self.comm.allreduce_max(moved) > 0.5 * self.skin
+        moved, rate = neighbors.max_motion(p.pos, p.pos_at_rebuild, p.vel, p.radius, p.n_local)
+        overlap = max(kind.worst_overlap for kind in self.kinds)
+        g = self.comm.allreduce_max(np.array([moved + self.boundary_moved, rate * self.dt, overlap]))
+        self.guard.check_step(self, g[1], g[2])
+        return g[0] > 0.5 * self.skin
 
     def update_dt(self, force=False):
         timestep.update_dt(self, force)

@@ -37,9 +37,9 @@ class Walls:
             if axis not in AXES:
                 raise InputError(f"{label}.axis = {axis!r}: must be one of x, y, z")
             axis = AXES[axis]
-        if axis not in (0, 1, 2):
+        if axis not in (0, 1, 2) or isinstance(axis, (bool, np.bool_)):
             raise InputError(f"{label}.axis = {axis!r}: must be 0, 1, 2 (x, y, z)")
-        if sense not in (-1, 0, 1):
+        if sense not in (-1, 0, 1) or isinstance(sense, (bool, np.bool_)):
             raise InputError(f"{label}.sense = {sense!r}: must be -1, 0 or 1")
         row = np.concatenate([[float(position)], np.asarray(velocity, float).reshape(3)])
         self.kernel_f = np.vstack([self.kernel_f, row[None]])

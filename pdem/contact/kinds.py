@@ -37,6 +37,7 @@ class ContactKind:
         self.loop = make_pair_loop(geometry, law)
         self.ptr = np.zeros(1, np.int64)
         self.rows = np.zeros(0, np.int64)
+        self.worst_overlap = 0.0  # largest overlap / smaller radius of the last compute [-]
 
     @property
     def normal_column(self):
@@ -47,8 +48,9 @@ class ContactKind:
         """Run the force loop over every candidate row."""
         p, c = sim.particles, self.contacts
         other_f, other_i = self.kernel_arrays()
-        self.loop(c.n, c.i, c.j, c.state, c.params, c.history, c.force, c.torque_i, c.torque_j, c.overlap, p.pos,
-                  p.vel, p.angvel, p.radius, p.material, p.mass, sim.props, other_f, other_i, sim.dt, sim.step)
+        self.worst_overlap = self.loop(c.n, c.i, c.j, c.state, c.params, c.history, c.force, c.torque_i, c.torque_j,
+                                       c.overlap, p.pos, p.vel, p.angvel, p.radius, p.material, p.mass, sim.props,
+                                       other_f, other_i, sim.dt, sim.step)
 
     def owned_rows(self, n_local):
         """Real contact rows counted by this rank (each contact once over all ranks)."""

@@ -14,7 +14,8 @@ twist axis (Δt/2 n_old·(ω1+ω2)) n_old from the normal stored in the geometry
 relative velocity without its normal part, Δu_s = v_t Δt → Law2 → outputs per row: the force on
 body 1 (pairs of particles) or on the sphere (boundaries), torques, overlap. Rows are written
 only by their own iteration (race-free under ``prange``); `pdem.forces` sums them per body in a
-fixed order.
+fixed order. The loop returns the largest overlap over the smaller radius of its contacts
+[-] (a max reduction: read by the runaway guard, `pdem.guard`, every step).
 
 The geometry and law functions take scalars and at most plain arrays they index themselves:
 an inline helper that passed arrays on to further inline helpers cost ~20 atomic reference-count
@@ -35,7 +36,9 @@ NORMAL_COLUMNS = 3  # the geometry's history: the normal of the previous step
 
 def pair_forces(n, pi, pj, state, params, history, force, torque_i, torque_j, overlap, pos, vel, angvel, radius,
                 material, mass, props, other_f, other_i, dt, step):
-    """Forces of candidate rows [0, n) of one contact kind (placeholders bound by make_pair_loop)."""
+    """Forces of candidate rows [0, n) of one contact kind (placeholders bound by make_pair_loop);
+    returns the largest overlap over the smaller radius [-] of the rows in contact."""
+    worst = 0.0
     for p in prange(n):
         i = pi[p]
         j = pj[p]
@@ -111,6 +114,9 @@ def pair_forces(n, pi, pj, state, params, history, force, torque_i, torque_j, ov
                 torque_i[p, 1] -= my
                 torque_i[p, 2] -= mz
         overlap[p] = pen
+        r_min = min(radius[i], radius[j]) if GEOM_TWO_PARTICLES else radius[i]  # noqa: F821
+        worst = max(worst, pen / r_min)
+    return worst
 
 
 @lru_cache(maxsize=None)

@@ -28,9 +28,9 @@ def write_cycles(path, columns, comm):
 
 def write_root_attrs(path, scene_spec, kind):
     """Root attributes ``scene`` (JSON), ``pdem_version`` and ``kind`` (rank 0 only)."""
-    import h5py
+    from ..io._h5 import open_h5
 
-    with h5py.File(path, "a") as f:
+    with open_h5(path, "a") as f:
         f.attrs["scene"] = json.dumps(scene_spec)
         f.attrs["pdem_version"] = __version__
         f.attrs["kind"] = kind

@@ -7,11 +7,18 @@ polled collectively every 100 steps: then a checkpoint and exit status 3), sched
 newest run.checkpoint_keep kept) and the checkpoint writer. `resume_point` picks the checkpoint
 a run continues from (the newest valid one; a damaged newer one is reported and skipped).
 """
+import os
 import sys
 import time as _time
 from pathlib import Path
 
-from ..io.checkpoint import CheckpointError, find_resume_checkpoint, list_checkpoints, write_checkpoint
+from ..errors import InputError
+from ..io.checkpoint import (
+    CheckpointError,
+    find_resume_checkpoint,
+    list_checkpoints,
+    write_checkpoint,
+)
 from ..io.signals import EXIT_CHECKPOINTED_ON_SIGNAL, install_signal_handlers
 
 
@@ -29,7 +36,8 @@ class Progress:
         self.every = every
         self.bar = None
         if comm.rank == 0 and every and sys.stdout.isatty():
-            from rich.progress import BarColumn, Progress as RichProgress, TextColumn, TimeRemainingColumn
+            from rich.progress import BarColumn, TextColumn, TimeRemainingColumn
+            from rich.progress import Progress as RichProgress
 
             self.bar = RichProgress(TextColumn("{task.description}"), BarColumn(), TextColumn("{task.fields[info]}"),
                                     TimeRemainingColumn(), transient=True)
@@ -169,10 +177,27 @@ class RunLoop:
 
 
 def prepare_output(comm, out):
+    """The output directory ``out``, created if missing and checked writable by rank 0; every
+    rank raises the same one-line InputError if it cannot be used."""
     out = Path(out)
-    if comm.rank == 0:
-        out.mkdir(parents=True, exist_ok=True)
-    comm.barrier()
+    problem = _unusable_output(out) if comm.rank == 0 else None
+    problem = comm.bcast(problem)
+    if problem:
+        raise InputError(f"--out {out}: {problem}")
     return out
+
+
+def _unusable_output(out):
+    """Why ``out`` cannot be the output directory, or None."""
+    if out.exists() and not out.is_dir():
+        return "exists and is not a directory"
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        probe = out / f".pdem-write-test-{os.getpid()}"
+        probe.write_bytes(b"pdem")
+        probe.unlink()
+    except OSError as exc:
+        return f"cannot create or write the output directory ({exc.strerror or exc})"
+    return None
 
 

@@ -79,6 +79,10 @@ class CheckpointError(RuntimeError):
         super().__init__(f"{self.path.name}: {self.reason}")
 
 
+class CheckpointWriteError(CheckpointError):
+    """Writing a checkpoint failed (disk full, unwritable directory ...); raised on every rank."""
+
+
 def checkpoint_name(step: int) -> str:
     """File name of the checkpoint at ``step``."""
     return f"ckpt_{int(step):012d}.h5"
@@ -186,7 +190,8 @@ def _write_file(final: Path, step: int, tables: dict, meta: dict, meta_json: str
     with atomic_path(final) as tmp:
         # HDF5 1.10 file format: its superblock and object headers carry checksums, so damaged
         # metadata is refused instead of misread (readable by any HDF5 >= 1.10, h5py >= 2.8).
-        with open_h5(tmp, "w", libver=("v110", "v110")) as f:
+        payload = sum(a.nbytes for cols in tables.values() for a in cols.values()) + len(meta_json)
+        with open_h5(tmp, "w", need=payload, libver=("v110", "v110")) as f:
             f.attrs["schema"] = _text(SCHEMA)
             f.attrs["schema_version"] = np.int64(SCHEMA_VERSION)
             f.attrs["step"] = np.int64(step)
@@ -308,8 +313,8 @@ def write_checkpoint(directory, step: int, tables: dict, meta: dict, comm, keep:
     outcome = comm.bcast(outcome)
     if outcome[0] != "ok":
         if comm.rank == 0:
-            raise CheckpointError(final, outcome[1]) from error
-        raise CheckpointError(final, outcome[1])
+            raise CheckpointWriteError(final, outcome[1]) from error
+        raise CheckpointWriteError(final, outcome[1])
     return Path(outcome[1])
 
 

@@ -6,9 +6,10 @@ collective). The step loop polls `stop_requested(comm)` every k steps; it is a c
 (``comm.any_flag``), so all ranks agree on the same step even if the signal reached only some of
 them. The run then writes a checkpoint and exits with `EXIT_CHECKPOINTED_ON_SIGNAL`.
 
-Exit statuses of the pdem command line (see also pdem.errors): 0 finished, 2 input error,
-3 = `EXIT_CHECKPOINTED_ON_SIGNAL` (stopped on SIGTERM/SIGUSR1 after writing a checkpoint; the run
-is not finished and a requeue continues from that checkpoint), 4 instability. Non-zero on purpose:
+Exit statuses of the pdem command line (all of them: pdem.driver.failures): 0 finished, 1
+internal error, 2 input error, 3 = `EXIT_CHECKPOINTED_ON_SIGNAL` (stopped on SIGTERM/SIGUSR1 after
+writing a checkpoint; the run is not finished and a requeue continues from that checkpoint), 4
+instability or runaway, 5 disk full or out of memory. 3 is non-zero on purpose:
 SLURM marks the job not-OK, so a chained ``--dependency=afternotok`` continuation starts, and a
 campaign runner can tell "resume me" (3) from failures. With sbatch use ``--signal=B:USR1@300``
 (signal the batch shell, which forwards it) or ``--signal=USR1@300`` (signal every task).

@@ -39,6 +39,14 @@ _CHUNK = 1024
 __all__ = ["ResultsFileError", "TimeSeriesWriter", "write_table"]
 
 
+_WHAT_TO_DO = ("move it aside to continue with a new results file (the checkpoints are kept), or start over "
+               "with --fresh after removing it")
+
+
+def _one(exc) -> str:
+    return " ".join(str(exc).split())[:200]
+
+
 class ResultsFileError(RuntimeError):
     """The results file cannot be used; the message is one line: ``<file>: <what>``."""
 
@@ -120,10 +128,36 @@ class TimeSeriesWriter:
         self._buffer: list[tuple] = []
         self._written = 0
         self._closed = False
+        failure = None
         if self.active:
-            self._start(attrs, append, restart_step)
+            try:
+                self._start(attrs, append, restart_step)
+            except ResultsFileError as exc:
+                failure = ("results", exc.reason)
+            except OSError as exc:  # disk full ...
+                failure = ("os", exc.errno, exc.strerror, exc.filename)
+        if comm is not None:  # every rank raises together: no rank is left waiting for rank 0
+            failure = comm.bcast(failure)
+        if failure is not None:
+            if failure[0] == "results":
+                raise ResultsFileError(self.path, failure[1])
+            raise OSError(*failure[1:])
 
     def _start(self, attrs, append, restart_step) -> None:
+        """Create the group, or (append) continue it; a file that cannot be continued raises
+        ResultsFileError naming what to do."""
+        try:
+            self._start_file(attrs, append, restart_step)
+        except ResultsFileError as exc:
+            raise ResultsFileError(self.path, f"{exc.reason}; {_WHAT_TO_DO}") from None
+        except OSError as exc:
+            if exc.errno is not None:  # the system's (disk full ...), not the file's
+                raise
+            raise ResultsFileError(self.path, f"damaged ({_one(exc)}); {_WHAT_TO_DO}") from None
+        except (KeyError, ValueError, TypeError, RuntimeError) as exc:
+            raise ResultsFileError(self.path, f"damaged ({type(exc).__name__}: {_one(exc)}); {_WHAT_TO_DO}") from None
+
+    def _start_file(self, attrs, append, restart_step) -> None:
         with _open_results(self.path, self.schema) as f:
             if not append and self.group in f:
                 del f[self.group]

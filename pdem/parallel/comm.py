@@ -3,9 +3,17 @@
 Owns: ``SerialComm`` and ``MpiComm`` (the same small interface: rank, size, barrier, bcast,
 reductions, exact sums, row gathers, the neighbour exchange of a 1-D chain of slabs, abort),
 ``get_comm`` (MPI only when launched under mpiexec/srun with more than one rank) and the numba
-thread count per rank.  This is the ONLY module of pdem that imports mpi4py, and it does so
-lazily, inside ``MpiComm``/``get_comm``, so that ``import pdem.parallel`` works without MPI.
-Nothing here knows about particles: callers pass plain numpy arrays.
+thread count per rank.
+
+Failures: ``agree_on_failure`` is how a rank that caught an error finds out whether every rank
+failed too (all of them reach it within a grace time: a non-blocking barrier on a private
+duplicate of the communicator, so it never pairs with a collective of the run) and then learns
+every rank's (status, line); ``abort(message, status)`` prints one line and ends the whole job
+(``MPI_Abort``) when a rank fails alone and the others wait in a collective.
+
+This is the ONLY module of pdem that imports mpi4py, and it does so lazily, inside
+``MpiComm``/``get_comm``, so that ``import pdem.parallel`` works without MPI. Nothing here knows
+about particles: callers pass plain numpy arrays.
 
 Bulk data always travels as numpy buffers with uppercase mpi4py calls (``Allreduce``,
 ``Gatherv``, ``Sendrecv``); only ``bcast`` (small configuration objects) and thread set-up
@@ -17,15 +25,18 @@ same bits.
 
 import os
 import sys
+import time
 
 import numpy as np
 
 from pdem import exactsum
 
-__all__ = ["SerialComm", "MpiComm", "get_comm", "threads_per_rank", "configure_threads"]
+__all__ = ["MpiComm", "SerialComm", "configure_threads", "get_comm", "threads_per_rank"]
 
 # Environment variables through which launchers announce the number of ranks.
 _SIZE_VARS = ("PMI_SIZE", "OMPI_COMM_WORLD_SIZE", "MV2_COMM_WORLD_SIZE", "SLURM_STEP_NUM_TASKS")
+
+_FAILURE_COMMS = {}  # communicator handle -> its duplicate for agree_on_failure
 
 _TAG_LO = 71  # neighbour_exchange: messages travelling towards rank - 1
 _TAG_HI = 73  # ... towards rank + 1 (each uses tag and tag + 1)
@@ -143,11 +154,15 @@ class SerialComm:
         """Objects from every rank on this node (pickled; set-up only)."""
         return [obj]
 
-    def abort(self, message):
-        """Print ``message`` on stderr and exit with status 1 (``SystemExit``)."""
+    def agree_on_failure(self, status, line, timeout):
+        """[(status, line)] of every rank that failed: here, this one."""
+        return [(int(status), str(line))]
+
+    def abort(self, message, status=1):
+        """Print ``message`` on stderr and exit with ``status`` (``SystemExit``)."""
         sys.stderr.write(f"{message}\n")
         sys.stderr.flush()
-        raise SystemExit(1)
+        raise SystemExit(status)
 
 
 # --------------------------------------------------------------------------- MPI
@@ -168,6 +183,7 @@ class MpiComm:
         self._lo = self.rank - 1 if self.rank > 0 else null
         self._hi = self.rank + 1 if self.rank < self.size - 1 else null
         self._node = None
+        self._failure_comm()
 
     def __repr__(self):
         return f"MpiComm(rank={self.rank}, size={self.size})"
@@ -292,12 +308,38 @@ class MpiComm:
             self._node = self.comm.Split_type(self._MPI.COMM_TYPE_SHARED, key=self.rank)
         return self._node.allgather(obj)
 
-    def abort(self, message):
-        """Print ``message`` on stderr, flush, and ``MPI_Abort(1)`` the whole job."""
-        sys.stderr.write(f"[rank {self.rank}/{self.size}] {message}\n")
+    def _failure_comm(self):
+        """A duplicate of the communicator for `agree_on_failure` (one per communicator and
+        process, made at the first `MpiComm` of it: ``Dup`` is collective)."""
+        key = self.comm.py2f()
+        if key not in _FAILURE_COMMS:
+            _FAILURE_COMMS[key] = self.comm.Dup()
+        return _FAILURE_COMMS[key]
+
+    def agree_on_failure(self, status, line, timeout):
+        """Called by a rank that failed: if every rank calls it within ``timeout`` seconds (they
+        all failed: e.g. the same bad input, or an error after a collective decision), returns
+        [(status, line)] of every rank, in rank order, on every rank. Else (a rank is still
+        running, or waits in a collective of the run) returns None: the caller then aborts.
+
+        A non-blocking barrier on a private duplicate of the communicator, polled every 5 ms,
+        so it never pairs with a collective of the run that other ranks are blocked in."""
+        fc = self._failure_comm()
+        request = fc.Ibarrier()
+        deadline = time.monotonic() + float(timeout)
+        while not request.Test():
+            if time.monotonic() > deadline:
+                return None  # the request stays pending: the job is aborted next
+            time.sleep(0.005)
+        return [(int(s), str(x)) for s, x in fc.allgather((int(status), str(line)))]
+
+    def abort(self, message, status=1):
+        """Print ``message`` on stderr, flush, and ``MPI_Abort(status)`` the whole job (every
+        rank ends, including those blocked in a collective)."""
+        sys.stderr.write(f"{message}\n")
         sys.stderr.flush()
         sys.stdout.flush()
-        self.comm.Abort(1)
+        self.comm.Abort(int(status))
 
 
 # --------------------------------------------------------------------------- factory

@@ -22,7 +22,7 @@ from pdem.contacts import KEY_SHIFT_INDEX, KEY_SHIFT_SPHERE
 from pdem.parallel import slabs
 from pdem.state import FIELDS
 
-__all__ = ["SlabDomain", "pack_rows", "unpack_rows", "contact_gids", "migrating_contacts"]
+__all__ = ["SlabDomain", "contact_gids", "migrating_contacts", "pack_rows", "unpack_rows"]
 
 _INT_FIELDS = [k for k, (dt, _) in FIELDS.items() if np.dtype(dt).kind in "iu"]
 _FLOAT_FIELDS = [k for k, (dt, _) in FIELDS.items() if np.dtype(dt).kind == "f"]
@@ -133,6 +133,23 @@ class SlabDomain:
         self.edges = slabs.uniform_edges(lo, hi, self.comm.size)
         mine = slabs.owner(x, self.edges) == self.comm.rank
         particles.append_local({k: np.asarray(v)[mine] for k, v in cols.items() if k in FIELDS})
+
+    def check_rank_count(self, cols, skin):
+        """Raise a one-line InputError (on every rank: ``cols`` are the same everywhere) if the
+        scene cannot be cut into this many slabs at least one halo (2 r_max + skin) thick, with
+        the largest rank count that works."""
+        from pdem.errors import InputError
+
+        x = np.asarray(cols["pos"])[:, self.axis]
+        if self.comm.size <= 2 or not len(x):
+            return
+        halo = 2.0 * float(np.max(cols["radius"])) + float(skin)
+        most = slabs.max_slabs(float(x.min()), float(x.max()), halo)
+        if self.comm.size > most:
+            raise InputError(
+                f"{self.comm.size} ranks: too many for this scene: its spheres span {float(np.ptp(x)):.4g} m along "
+                f"{'xyz'[self.axis]} and each slab must be at least one halo (2 r_max + skin = {halo:.4g} m) thick; "
+                f"use at most {most} ranks (or another simulation.slab_axis)")
 
     def halo_width(self):
         return self.halo

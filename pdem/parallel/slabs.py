@@ -16,7 +16,7 @@ every coordinate has exactly one owner.
 
 import numpy as np
 
-__all__ = ["uniform_edges", "owner", "ghost_destinations", "balanced_edges", "imbalance"]
+__all__ = ["balanced_edges", "ghost_destinations", "imbalance", "owner", "uniform_edges"]
 
 
 def uniform_edges(lo, hi, size):
@@ -42,6 +42,16 @@ def uniform_edges(lo, hi, size):
     edges = np.linspace(float(lo), float(hi), size + 1)
     edges[0], edges[-1] = lo, hi
     return edges
+
+
+def max_slabs(lo, hi, width):
+    """The most slabs `uniform_edges` can cut ``[lo, hi]`` into with every interior slab at
+    least ``width`` thick (the tolerance of `ghost_destinations`); two slabs have no interior
+    one, so at least 2."""
+    span, width = float(hi) - float(lo), float(width)
+    if not width > 0 or not span > 0:
+        return 2
+    return max(2, int(np.floor(span / (width * (1.0 - 1e-9)))))
 
 
 def _check_edges(edges):

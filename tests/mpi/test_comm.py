@@ -207,3 +207,27 @@ def test_only_comm_imports_mpi4py():
         if pattern.search(p.read_text()) and p != root / "parallel" / "comm.py"
     ]
     assert offenders == []
+
+
+def test_agree_on_failure_when_every_rank_fails(comm, capsys):
+    """Every rank fails (at slightly different times, within the grace time): each learns every
+    rank's (status, line) in rank order, and the failure report prints once (rank 0) and returns
+    the highest status on every rank, without aborting."""
+    import time
+
+    from pdem.driver.failures import report_failure
+    from pdem.errors import InputError, InstabilityError
+
+    time.sleep(0.05 * comm.rank)
+    got = comm.agree_on_failure(2 + comm.rank % 2, f"line {comm.rank}", 30.0)
+    assert got == [(2 + r % 2, f"line {r}") for r in range(comm.size)]
+    status = report_failure(comm, InputError("x = 1: must be 2"), grace=30.0)
+    err = capsys.readouterr().err
+    assert status == 2
+    assert err == ("pdem: error: x = 1: must be 2\n" if comm.rank == 0 else "")
+    exc = InstabilityError("step 7: blew up") if comm.rank == comm.size - 1 else InputError("bad")
+    status = report_failure(comm, exc, grace=30.0)
+    err = capsys.readouterr().err
+    assert status == (4 if comm.size > 1 else 4)
+    if comm.rank == 0 and comm.size > 1:
+        assert err.splitlines() == ["pdem: error: bad (rank 0)", f"pdem: unstable: step 7: blew up (rank {comm.size - 1})"]

@@ -19,6 +19,8 @@ G = 9.81
 
 def sphere_on_wall(*, dt, damping=0.0, gravity=0.0, z=R, vel=(0.0, 0.0, 0.0), angvel=(0.0, 0.0, 0.0),
                    friction_angle=0.5, poisson=0.3, **kw):
+    # the cases start at the static overlap on purpose
+    kw.setdefault("allow_initial_overlap", True)
     sc = Scene(dt=dt, damping=damping, gravity=(0.0, 0.0, -gravity), **kw)
     mat = sc.material(density=RHO, young=E, poisson=poisson, friction_angle=friction_angle)
     sc.add_spheres([(0.0, 0.0, z)], R, mat, vel=[vel], angvel=[angvel])

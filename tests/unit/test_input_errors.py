@@ -76,7 +76,7 @@ def test_poisson_zero_on_both_sides_gives_ks_zero_not_a_crash():
     """Yade's Ip2 gives ks = 0/0 = NaN when both materials have ν = 0; numba raised
     ZeroDivisionError inside the kernel. pdem defines ks = 0 (no shear spring, documented in
     pdem.contact.linear): the contact pushes but carries no shear force."""
-    sc = pdem.Scene(dt=1e-6, gravity=(0.0, 0.0, -9.81))
+    sc = pdem.Scene(dt=1e-6, gravity=(0.0, 0.0, -9.81), allow_initial_overlap=True)
     a = sc.material(density=2600.0, young=1e7, poisson=0.0, friction_angle=0.5)
     b = sc.material(density=2600.0, young=1e7, poisson=0.0, friction_angle=0.5)
     sc.add_spheres([(0.0, 0.0, 0.0099), (0.0, 0.0, 0.03)], 0.01, [a, b], vel=[(0.1, 0, 0), (0, 0, 0)])
@@ -86,3 +86,40 @@ def test_poisson_zero_on_both_sides_gives_ks_zero_not_a_crash():
     c = sim.contacts("sphere_wall")
     assert len(c["ks"]) == 1 and c["ks"][0] == 0.0 and c["kn"][0] > 0.0
     assert np.all(c["shear_force"] == 0.0) and np.all(np.isfinite(sim.particles.vel))
+
+@pytest.mark.parametrize("changes, words", [
+    ({"simulation": [1, 2]}, ["simulation", "must be a table"]),
+    ({"walls": 5}, ["walls", "array of tables"]),
+    ({"walls": [{"axis": "z", "position": 0.0, "material": "ballast", "sense": True}]}, ["sense", "True"]),
+    ({"walls": [{"axis": "z", "position": True, "material": "ballast"}]}, ["position", "True"]),
+    ({"simulation": {"dt": True}}, ["dt", "True"]),
+    ({"simulation": {"energy_check": "no"}}, ["energy_check", "'no'", "true or false"]),
+    ({"simulation": {"allow_initial_overlap": "false"}}, ["allow_initial_overlap", "'false'"]),
+    ({"simulation": {"domain": [[0, 0, 0], [1, 1]]}}, ["domain"]),
+    ({"spheres": [{"pos": [[0.0, 0.0]], "radius": 0.01, "material": "ballast"}]}, ["spheres.pos", "shape (1, 2)"]),
+    ({"spheres": [{"pos": [[0, 0, 0], [0.1, 0, 0]], "radius": [0.01] * 3, "material": "ballast"}]}, ["radius", "2 numbers"]),
+    ({"spheres": [{"pos": [[0.0, "a", 0.0]], "radius": 0.01, "material": "ballast"}]}, ["spheres.pos", "'a'"]),
+    ({"spheres": [{"pos": [[0, 0, 0]], "radius": 0.01, "material": "ballast", "fixed": "false"}]}, ["fixed", "'false'"]),
+    ({"materials": {"ballast": {"density": 2600.0, "young": True, "poisson": 0.3, "friction_angle": 0.5}}},
+     ["young", "True"]),
+])
+def test_strict_types_one_line(changes, words):
+    """Numbers are numbers (not booleans), booleans are booleans (not strings), shapes are checked."""
+    with pytest.raises(pdem.InputError) as exc:
+        scene_from_dict(_doc(**changes)).build()
+    msg = str(exc.value)
+    assert "\n" not in msg
+    for w in words:
+        assert w in msg, (w, msg)
+
+
+@pytest.mark.parametrize("content", [b"\xff\xfe[\x00r\x00u\x00n\x00]\x00", bytes(range(256))])
+def test_binary_or_utf16_scene_file_one_line(tmp_path, content):
+    from pdem.config import load_toml
+
+    p = tmp_path / "scene.toml"
+    p.write_bytes(content)
+    with pytest.raises(pdem.InputError, match="not a text file in UTF-8"):
+        load_toml(p)
+    with pytest.raises(pdem.InputError, match="is a directory"):
+        load_toml(tmp_path)

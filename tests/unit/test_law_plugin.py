@@ -16,7 +16,7 @@ R, RHO, E, PHI = 0.01, 2600.0, 1e7, 0.3
 
 
 def slide(law, steps):
-    sc = Scene(dt=1e-6, gravity=(0.0, 0.0, -9.81), law=law)
+    sc = Scene(dt=1e-6, gravity=(0.0, 0.0, -9.81), law=law, allow_initial_overlap=True)
     m = sc.material(density=RHO, young=E, poisson=0.3, friction_angle=PHI)
     sc.add_spheres([(0.0, 0.0, R - 1e-6)], R, m, vel=[(0.05, 0.0, 0.0)])
     sc.add_wall("z", 0.0, m, sense=1)

@@ -21,7 +21,8 @@ def load(case):
 
 def build_scene(d):
     """A pdem Scene equivalent to the JSON's Yade scene; returns (scene, {yade id: gid}, {yade id: (kind, index)})."""
-    sc = Scene(dt=d["dt"], damping=d["damping"], gravity=d["gravity"])
+    # Yade's scenes start in contact with their wall or facet (a sphere at rest on it, overlap ~1e-7 m)
+    sc = Scene(dt=d["dt"], damping=d["damping"], gravity=d["gravity"], allow_initial_overlap=True)
     mats = {}
     for m in sorted(d["materials"], key=lambda m: m["id"]):
         mats[m["id"]] = sc.material(density=m["density"], young=m["young"], poisson=m["poisson"],

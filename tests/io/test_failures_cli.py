@@ -1,0 +1,264 @@
+"""No hung jobs, no silent nonsense: how `pdem run` ends under faults and bad input, on 1 and 2
+ranks (subprocesses through the real command line; docs/reliability.md).
+
+- an exception on ONE rank (RuntimeError, MemoryError, OSError, an instability seen by one
+  rank) while the other waits in a collective: the job ends (the subprocess timeout would kill a
+  hung one and fail the test) with the failure's status, the line printed once;
+- bad input and errors every rank raises: printed once, status 2;
+- runaway runs (a shot into a wall, dt = 1 s): status 4 naming the body, never 0;
+- too many ranks for the slabs: status 2 with the largest usable count;
+- output failures: --out a file or under a file, a damaged results.h5 on resume (refused on
+  every rank together), a full disk (status 5, one line, never a segfault).
+Fault injection: tests/tools/inject_fault.py (the real CLI with one rank's step raising).
+"""
+import os
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import pytest
+from pdem_cli import MPIEXEC
+
+ROOT = Path(__file__).resolve().parents[2]
+INJECT = ROOT / "tests" / "tools" / "inject_fault.py"
+ENDED_WITHIN = 120  # s: a job still running after this is hung
+FAULT_ENDED_WITHIN = 30  # s: the same for a job with a fault on one rank (grace time 5 s there)
+
+SCENE = """
+[simulation]
+dt = "auto"
+damping = 0.3
+gravity = [0.0, 0.0, -9.81]
+
+[run]
+steps = 200
+progress_every = 0
+output_every = 50
+
+[materials.ballast]
+density = 2600.0
+young = 2.8e7
+poisson = 0.3
+friction_angle = 0.5
+
+[deposition]
+box_lo = [0.0, 0.0, 0.0]
+box_hi = [0.4, 0.1, 0.3]
+count = 120
+radius = 0.01
+seed = 1
+material = "ballast"
+walls_material = "ballast"
+"""
+
+SHOT = """
+[simulation]
+dt = "auto"
+damping = 0.0
+gravity = [0.0, 0.0, 0.0]
+
+[run]
+steps = 2000
+progress_every = 0
+
+[materials.ballast]
+density = 2600.0
+young = 2.8e7
+poisson = 0.3
+friction_angle = 0.5
+
+[[walls]]
+axis = "x"
+position = 0.0
+material = "ballast"
+
+[[spheres]]
+pos = [[0.05, 0.0, 0.0], [0.3, 0.0, 0.0]]
+radius = 0.01
+material = "ballast"
+vel = [[-100.0, 0.0, 0.0], [0.0, 0.0, 0.0]]
+"""
+
+
+def run(n_ranks, argv, tmp_path, env=None, tool=None, timeout=ENDED_WITHIN):
+    """(returncode, stdout, stderr) of ``pdem ARGV`` (or the fault tool) on n_ranks; a run that
+    has not ended after ``timeout`` seconds is killed and the test fails (TimeoutExpired)."""
+    cmd = [sys.executable] + ([str(INJECT), *tool, "--"] if tool else ["-m", "pdem"]) + list(argv)
+    if n_ranks > 1:
+        cmd = [str(MPIEXEC), "-n", str(n_ranks)] + cmd
+    e = dict(os.environ, OMP_NUM_THREADS="1", NUMBA_NUM_THREADS="1", **(env or {}))
+    r = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, env=e, cwd=tmp_path, check=False)
+    return r.returncode, r.stdout, r.stderr
+
+
+def scene(tmp_path, text=SCENE, name="scene.toml"):
+    p = tmp_path / name
+    p.write_text(textwrap.dedent(text))
+    return p
+
+
+def pdem_lines(err):
+    return [x for x in err.splitlines() if x.startswith("pdem: ")]
+
+
+@pytest.fixture(scope="module")
+def warm(tmp_path_factory):
+    """One short run first, so that numba's cache holds the kernels before the timed runs (a
+    cold cache compiles for longer than FAULT_ENDED_WITHIN)."""
+    d = tmp_path_factory.mktemp("warm")
+    rc, _, err = run(1, ["run", str(scene(d)), "--out", "out", "--steps", "100"], d, timeout=900)
+    assert rc == 0, err[-2000:]
+
+
+@pytest.mark.parametrize("n_ranks", [1, 2])
+@pytest.mark.parametrize("kind, status, words", [
+    ("RuntimeError", 1, ["internal error", "RuntimeError", "injected fault"]),
+    ("MemoryError", 5, ["out of memory"]),
+    ("OSError", 5, ["injected I/O error"]),
+    ("Instability", 4, ["unstable", "injected instability"]),
+])
+def test_exception_on_one_rank_ends_the_job(warm, tmp_path, n_ranks, kind, status, words):
+    """The fault on the last rank at step 60; the other rank waits in the next collective. The
+    job must end within 30 s (else TimeoutExpired fails the test) with the status of the failure
+    and its line once. The grace time is 5 s here (PDEM_FAILURE_GRACE_S; default 10 s)."""
+    s = scene(tmp_path)
+    rc, out, err = run(n_ranks, ["run", str(s), "--out", "out"], tmp_path, tool=[str(n_ranks - 1), "60", kind],
+                       env={"PDEM_FAILURE_GRACE_S": "5"}, timeout=FAULT_ENDED_WITHIN)
+    assert rc == status, (rc, out[-2000:], err[-3000:])
+    lines = pdem_lines(err)
+    assert len(lines) == 1, err[-3000:]
+    for w in words:
+        assert w in lines[0], lines
+    if n_ranks > 1:
+        assert f"on rank 1 of {n_ranks}" in lines[0]
+    if kind != "RuntimeError":  # only a bug (internal error) shows its traceback
+        assert "Traceback" not in err
+
+
+@pytest.mark.parametrize("n_ranks", [1, 2])
+@pytest.mark.parametrize("edit, words", [
+    (("young = 2.8e7", "young = true"), ["young", "True", "> 0"]),
+    (("damping = 0.3", "damping = 0.3\nallow_initial_overlap = \"false\""), ["allow_initial_overlap", "true or false"]),
+    (("progress_every = 0", "progress_every = 0\ncheckpoint_every_s = \"abc\""), ["checkpoint_every_s", "'abc'"]),
+    (("progress_every = 0", "progress_every = 0\ncheckpoint_every_s = nan"), ["checkpoint_every_s", "nan"]),
+    (("seed = 1", "seed = -1"), ["deposition.seed", "-1"]),
+])
+def test_bad_input_once_status_2(tmp_path, n_ranks, edit, words):
+    s = scene(tmp_path, SCENE.replace(*edit))
+    rc, _, err = run(n_ranks, ["run", str(s), "--out", "out"], tmp_path)
+    assert rc == 2, (rc, err[-2000:])
+    lines = pdem_lines(err)
+    assert len(lines) == 1 and "Traceback" not in err, err[-2000:]
+    for w in words:
+        assert w in lines[0], lines
+
+
+@pytest.mark.parametrize("n_ranks", [1, 2])
+def test_output_directory_problems(tmp_path, n_ranks):
+    s = scene(tmp_path)
+    (tmp_path / "afile").write_text("x")
+    for out, words in (("afile", ["--out afile", "not a directory"]), ("afile/sub", ["--out afile/sub", "Not a directory"]),
+                       ("/dev/null", ["--out /dev/null", "not a directory"])):
+        rc, _, err = run(n_ranks, ["run", str(s), "--out", out], tmp_path)
+        lines = pdem_lines(err)
+        assert rc == 2 and len(lines) == 1 and "Traceback" not in err, (out, rc, err[-2000:])
+        for w in words:
+            assert w in lines[0], lines
+
+
+def test_negative_steps_refused(tmp_path):
+    s = scene(tmp_path)
+    rc, _, err = run(2, ["run", str(s), "--out", "out", "--steps", "-5"], tmp_path)
+    assert rc == 2 and pdem_lines(err) == ["pdem: error: --steps = -5: must be an integer >= 0 (the total steps of the run)"]
+
+
+@pytest.mark.parametrize("n_ranks", [1, 2])
+def test_shot_into_wall_stops_with_status_4(tmp_path, n_ranks):
+    """A sphere at 100 m/s towards a soft wall (E 2.8e7, no damping) would tunnel through it: the
+    run stops with status 4 naming the body, never exits 0."""
+    s = scene(tmp_path, SHOT)
+    rc, _, err = run(n_ranks, ["run", str(s), "--out", "out"], tmp_path)
+    lines = pdem_lines(err)
+    assert rc == 4 and len(lines) == 1, (rc, err[-2000:])
+    assert "body gid 0" in lines[0] and "tunnelling" in lines[0], lines
+
+
+@pytest.mark.parametrize("n_ranks", [1, 2])
+def test_deposition_with_dt_1s_stops_with_status_4(tmp_path, n_ranks):
+    s = scene(tmp_path, SCENE.replace('dt = "auto"', "dt = 1.0"))
+    rc, _, err = run(n_ranks, ["run", str(s), "--out", "out"], tmp_path)
+    lines = pdem_lines(err)
+    assert rc == 4 and len(lines) == 1, (rc, err[-2000:])
+    assert "step 1:" in lines[0] and "of its radius per step" in lines[0], lines
+
+
+def test_too_many_ranks_named_before_any_work(tmp_path):
+    """A scene 0.1 m long on x with a halo of ~0.022 m takes at most 4 slabs: 5 ranks are refused
+    with that number (no ValueError traceback from the ghost layer)."""
+    s = scene(tmp_path, SCENE.replace("box_hi = [0.4, 0.1, 0.3]", "box_hi = [0.11, 0.1, 0.6]"))
+    rc, _, err = run(5, ["run", str(s), "--out", "out"], tmp_path)
+    lines = pdem_lines(err)
+    assert rc == 2 and len(lines) == 1 and "Traceback" not in err, (rc, err[-2000:])
+    assert "5 ranks: too many" in lines[0] and "use at most 3 ranks" in lines[0], lines
+
+
+@pytest.mark.parametrize("n_ranks", [1, 2])
+def test_damaged_results_file_on_resume_refused_by_every_rank(tmp_path, n_ranks):
+    s = scene(tmp_path)
+    rc, _, err = run(1, ["run", str(s), "--out", "out", "--steps", "100"], tmp_path)
+    assert rc == 0, err[-2000:]
+    (tmp_path / "out" / "results.h5").write_bytes(b"\0garbage" * 100)
+    rc, _, err = run(n_ranks, ["run", str(s), "--out", "out"], tmp_path)
+    lines = pdem_lines(err)
+    assert rc == 2 and len(lines) == 1 and "Traceback" not in err, (rc, err[-2000:])
+    assert "results.h5" in lines[0] and "move it aside" in lines[0], lines
+    # moved aside as the line says: the run continues from the checkpoint with a new file
+    (tmp_path / "out" / "results.h5").rename(tmp_path / "out" / "results.h5.damaged")
+    rc, _, err = run(n_ranks, ["run", str(s), "--out", "out"], tmp_path)
+    assert rc == 0, err[-2000:]
+
+
+@pytest.mark.parametrize("n_ranks", [1, 2])
+def test_no_space_at_the_first_write(tmp_path, n_ranks):
+    """A full disk at the first results write (a free-space floor no disk has): status 5 and one
+    line naming the file, before HDF5 is ever handed the failing write."""
+    s = scene(tmp_path)
+    rc, _, err = run(n_ranks, ["run", str(s), "--out", "out"], tmp_path, env={"PDEM_MIN_FREE_BYTES": str(10**18)})
+    lines = pdem_lines(err)
+    assert rc == 5 and len(lines) == 1 and "Traceback" not in err, (rc, err[-2000:])
+    assert "no space left" in lines[0] and "results.h5" in lines[0], lines
+
+
+@pytest.fixture
+def small_disk(tmp_path):
+    """A 400 KiB tmpfs (needs root: mount). Skipped, with the reason, where it cannot be mounted."""
+    d = tmp_path / "disk"
+    d.mkdir()
+    r = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=400k", "tmpfs", str(d)], capture_output=True, text=True,
+                       check=False)
+    if r.returncode != 0:
+        pytest.skip(f"cannot mount a small tmpfs to fill ({r.stderr.strip() or 'mount failed'}); "
+                    "test_no_space_at_the_first_write covers the path")
+    yield d
+    subprocess.run(["umount", str(d)], check=False)
+
+
+@pytest.mark.parametrize("n_ranks", [1, 2])
+def test_disk_full_mid_run(tmp_path, small_disk, n_ranks):
+    """A real full file system mid-run (checkpoints every 100 steps fill 400 KiB): status 5, one
+    line, no HDF5 traceback, no segfault; the checkpoints written before are intact."""
+    s = scene(tmp_path, SCENE.replace("steps = 200", "steps = 3000").replace(
+        "output_every = 50", "output_every = 1\ncheckpoint_every = 100\ncheckpoint_keep = 0"))
+    rc, out, err = run(n_ranks, ["run", str(s), "--out", str(small_disk / "o")], tmp_path,
+                       env={"PDEM_MIN_FREE_BYTES": "100000"})
+    lines = pdem_lines(err)
+    assert rc == 5 and len(lines) == 1, (rc, out[-1000:], err[-3000:])
+    assert "No space left" in lines[0] or "no space left" in lines[0], lines
+    assert "Traceback" not in err and "Segmentation" not in err
+    from pdem.io.checkpoint import list_checkpoints, verify_checkpoint
+
+    written = list_checkpoints(small_disk / "o" / "checkpoints")
+    assert written
+    for _, p in written:
+        verify_checkpoint(p)
