@@ -262,9 +262,7 @@ class Simulation:
         for tan φ) for the existing ones: the vibration stage of the thesis (4.2) lowers friction
         tenfold and restores it with factor 1."""
         law = self.law
-        col = list(law.MATERIAL_KEYS).index(law.FRICTION_KEY)
-        self.props = self.materials.props()
-        self.props[:, col] *= float(factor)
+        self.props = self.materials.props(scale={law.FRICTION_KEY: factor})
         p = self.particles
         for kind in self.kinds:
             c = kind.contacts
