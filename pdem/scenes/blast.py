@@ -14,7 +14,9 @@ is ``[simulation] law = "viscous"`` with materials ``grain``, ``plate``, ``wall`
 3. per plate k of ``plates`` (areal masses [kg/m²]), starting again from the prepared layer:
    ``plate_k``  the cover plate (a rigid box spanning the box, z translation only, mass =
                 areal mass × box area) is placed on the highest grain and settles under its
-                weight (Cundall damping ``prep_damping`` on grains and plate);
+                weight (Cundall damping ``prep_damping`` on grains and plate) until the grains'
+                unbalanced force ratio and the plate's (|F_grains + m g|/(m g)) are below
+                ``plate_settle_ratio``;
    ``blast_k``  no Cundall damping (only the law's viscous damping, as in the paper); the plate
                 carries F(t) = F0 (1 − t/τ) downwards for ``duration`` [s] after the stage starts.
 
@@ -62,7 +64,7 @@ DEFAULTS = {
     "overfill": 1.1,                   # cloud volume / layer volume [-]
     "prep_damping": 0.3,               # Cundall lambda_D of the preparation stages [-]
     "settle_ratio": 0.01, "settle_min_time": 0.05, "settle_max_time": 1.0, "check_every": 200,
-    "plate_settle_ratio": 0.01, "plate_settle_min_time": 0.005, "plate_settle_max_time": 0.1,
+    "plate_settle_ratio": 0.01, "plate_settle_min_time": 0.02, "plate_settle_max_time": 0.2,
     "plates": [10780.0],               # areal masses of the cover plates [kg/m^2]
     "plate_thickness": 0.02,           # [m], geometry only (the mass is areal mass x area)
     "F0": 9.0e6, "tau": 1.0e-4,        # F(t) = F0 (1 - t/tau) [N], [s]
@@ -232,6 +234,13 @@ def blast_sample(sim, t0, load, area):
             "input_force": float(load.value(t)), "kinetic_energy": e["kinetic"] + e["rotational"]}
 
 
+def plate_balance(sim):
+    """|F_grains,z + m g_z| / (m |g_z|) of the plate [-]: 0 when the layer carries its weight."""
+    bx = sim.boxes
+    weight = bx.mass[0] * sim.gravity[2]
+    return abs(float(bx.contact_force[0, 2]) + weight) / abs(weight)
+
+
 def check_plate_step(sim, limit):
     """Stop (`InstabilityError`) if the plate moved more than ``limit`` [m] in the last step: it
     would pass through grains before their overlap is checked."""
@@ -305,8 +314,9 @@ class BlastRun(StagedRun):
             tables, removed = remove_above(tables, c["box"][2])
             return tables, f"removed {removed} spheres above {c['box'][2]} m"
         if stage.startswith("plate"):
-            tables, _ = read_prepared(state["prepared"], c, self.doc["materials"])
+            tables, meta = read_prepared(state["prepared"], c, self.doc["materials"])
             tables = {k: v for k, v in tables.items() if k != "boxes"}
+            self.restart_clock(meta)
             p = tables["particles"]
             top = float(np.max(p["pos"][:, 2] + p["radius"]))
             state["plate_center"] = plate_geometry(c, top)[0].tolist()
@@ -315,6 +325,25 @@ class BlastRun(StagedRun):
         if stage.startswith("blast"):
             state["blast_t0"] = float(self.meta["time"]) if self.meta else 0.0
         return tables, ""
+
+    def restart_clock(self, prepared):
+        """Every plate starts from the prepared layer's time and from a step congruent to its
+        step modulo every schedule that acts on the state (Δt updates, stage checks, records), so
+        a plate's record is the same bits whichever plates ran before it and whether the layer
+        was prepared in this run or another (``prepared_from``); steps still only grow (the
+        checkpoint names)."""
+        sim_doc = self.doc.get("simulation", {})
+        run = self.run_cfg
+        period = 1
+        for k in (sim_doc.get("dt_interval", 100), sim_doc.get("check_interval", 100), self.c["check_every"],
+                  self.c["record_every"], run["output_every"], run["snapshot_every"], run["checkpoint_every"]):
+            period = np.lcm(period, int(k) if k else 1)
+        now = int(self.meta["step"]) if self.meta else 0
+        step = int(prepared["step"])
+        step += -(-(now - step) // period) * period if now > step else 0
+        if self.meta is None:
+            self.meta = {"n_rebuilds": 0}
+        self.meta.update(step=step, time=float(prepared["time"]))
 
     def stage_scene(self, stage, tables):
         c, state = self.c, self.state
@@ -346,7 +375,11 @@ class BlastRun(StagedRun):
         t_end = t0 + c["plate_settle_max_time" if plate else "settle_max_time"]
 
         def settled(sim):
-            return sim.time >= t_end or (sim.time - t0 >= t_min and observables.unbalanced_force(sim) < ratio)
+            if sim.time >= t_end:
+                return True
+            if sim.time - t0 < t_min or observables.unbalanced_force(sim) >= ratio:
+                return False
+            return not plate or plate_balance(sim) < ratio
 
         return on_step, settled, c["check_every"], t_end
 
@@ -407,7 +440,7 @@ class BlastRun(StagedRun):
         ratio = observables.unbalanced_force(sim)
         if stage in PREP_STAGES or stage.startswith("plate"):
             want = c["plate_settle_ratio" if stage.startswith("plate") else "settle_ratio"]
-            if ratio >= want:
+            if ratio >= want or (stage.startswith("plate") and plate_balance(sim) >= want):
                 log(f"warning: stage {stage} reached its maximum time with unbalanced force ratio {ratio:.3g} >= {want}; "
                     "going on")
             self.prep.append(prep_sample(sim, self.STAGES.index(stage)))
