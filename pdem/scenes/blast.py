@@ -337,7 +337,7 @@ class BlastRun(StagedRun):
         period = 1
         for k in (sim_doc.get("dt_interval", 100), sim_doc.get("check_interval", 100), self.c["check_every"],
                   self.c["record_every"], run["output_every"], run["snapshot_every"], run["checkpoint_every"]):
-            period = np.lcm(period, int(k) if k else 1)
+            period = int(np.lcm(period, int(k) if k else 1))
         now = int(self.meta["step"]) if self.meta else 0
         step = int(prepared["step"])
         step += -(-(now - step) // period) * period if now > step else 0
