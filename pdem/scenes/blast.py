@@ -7,7 +7,11 @@ is ``[simulation] law = "viscous"`` with materials ``grain``, ``plate``, ``wall`
 
 1. ``pour``     a seeded loose cloud of spheres (diameters ``diameter_min``..``diameter_max``)
                 falls into the box (ceiling = floor wall at z = 0, four side walls) and settles
-                with Cundall damping ``prep_damping`` (preparation only).
+                with Cundall damping ``prep_damping`` (preparation only), not before the top of
+                the cloud could have fallen to the floor (sqrt(2 h/g)). With
+                ``prep_stiffness_factor`` < 1 the preparation runs with the stiffnesses (k_n,
+                k_s, k_θ; E) times that factor (a longer Δt); the plate stages make the contacts
+                again with the full stiffness.
 2. ``settle``   the spheres whose top is above the layer height ``box[2]`` are removed; settle
                 again. The layer at the end of this stage is the *prepared layer*: it is also
                 written to ``prepared_layer/`` of the run directory.
@@ -63,6 +67,7 @@ DEFAULTS = {
     "packing_fraction": 0.6,           # solid fraction assumed to size the cloud [-]
     "overfill": 1.1,                   # cloud volume / layer volume [-]
     "prep_damping": 0.3,               # Cundall lambda_D of the preparation stages [-]
+    "prep_stiffness_factor": 1.0,      # pour and settle with the materials' stiffness times this [-]
     "settle_ratio": 0.01, "settle_min_time": 0.05, "settle_max_time": 1.0, "check_every": 200,
     "plate_settle_ratio": 0.01, "plate_settle_min_time": 0.02, "plate_settle_max_time": 0.2,
     "plates": [10780.0],               # areal masses of the cover plates [kg/m^2]
@@ -76,7 +81,8 @@ PREP_STAGES = ("pour", "settle")
 PREPARED_DIR = "prepared_layer"
 # what must agree between a prepared layer and the run that loads it
 PREPARED_KEYS = ("box", "grain_material", "wall_material", "diameter_min", "diameter_max", "seed",
-                 "packing_fraction", "overfill")
+                 "packing_fraction", "overfill", "prep_stiffness_factor", "prep_damping")
+STIFFNESS_KEYS = ("kn", "ks", "rolling_stiffness", "young")  # scaled by prep_stiffness_factor
 
 
 # ---------------------------------------------------------------------------- settings
@@ -99,6 +105,8 @@ def blast_settings(doc):
     for k in ("settle_min_time", "plate_settle_min_time"):
         c[k] = number(f"blast.{k}", c[k], 0.0)
     c["prep_damping"] = number("blast.prep_damping", c["prep_damping"], 0.0, 0.99, allow="in [0, 0.99] (Cundall's lambda_D)")
+    c["prep_stiffness_factor"] = number("blast.prep_stiffness_factor", c["prep_stiffness_factor"], 0.0, 1.0,
+                                        lo_open=True, allow="in (0, 1]")
     for k in ("seed", "check_every", "record_every"):
         c[k] = number(f"blast.{k}", c[k], 0 if k == "seed" else 1, integer=True)
     if c["diameter_max"] < c["diameter_min"]:
@@ -161,6 +169,10 @@ def stage_scene(doc, c, stage, tables, plate_mass=None, load=None, plate_center=
     """The `Scene` of ``stage`` holding the spheres of ``tables``: the file's materials and
     settings, the ceiling and four side walls, and (plate and blast stages) the cover plate."""
     base = {k: v for k, v in doc.items() if k in ("simulation", "materials", "material_pairs")}
+    if stage in PREP_STAGES and c["prep_stiffness_factor"] != 1.0:
+        f = c["prep_stiffness_factor"]
+        base["materials"] = {name: {k: v * f if k in STIFFNESS_KEYS else v for k, v in m.items()}
+                             for name, m in base["materials"].items()}
     blast = stage.startswith("blast")
     base["simulation"] = {**base.get("simulation", {}), "allow_initial_overlap": True,
                           "damping": 0.0 if blast else c["prep_damping"]}
@@ -306,6 +318,9 @@ class BlastRun(StagedRun):
         c, state = self.c, self.state
         if stage == "pour":
             pos, radius = cloud(c)
+            g = float(np.linalg.norm(self.doc.get("simulation", {}).get("gravity", [0.0, 0.0, 0.0])))
+            top = float(np.max(pos[:, 2] + radius))
+            state["pour_min_time"] = float(np.sqrt(2.0 * top / g)) if g > 0 else 0.0
             grain = c["grain_material"]
             tables = append_bodies(empty_tables(), pos, radius, self.doc["materials"][grain]["density"],
                                    list(self.doc["materials"]).index(grain), 0)
@@ -315,7 +330,9 @@ class BlastRun(StagedRun):
             return tables, f"removed {removed} spheres above {c['box'][2]} m"
         if stage.startswith("plate"):
             tables, meta = read_prepared(state["prepared"], c, self.doc["materials"])
-            tables = {k: v for k, v in tables.items() if k != "boxes"}
+            # a softer preparation's contacts carry its stiffness: they are made again
+            soft = c["prep_stiffness_factor"] != 1.0
+            tables = {k: v for k, v in tables.items() if k != "boxes" and not (soft and k.startswith("contacts/"))}
             self.restart_clock(meta)
             p = tables["particles"]
             top = float(np.max(p["pos"][:, 2] + p["radius"]))
@@ -372,6 +389,8 @@ class BlastRun(StagedRun):
         plate = stage.startswith("plate")
         ratio = c["plate_settle_ratio" if plate else "settle_ratio"]
         t_min = c["plate_settle_min_time" if plate else "settle_min_time"]
+        if stage == "pour":  # not before the top of the cloud could have fallen to the floor
+            t_min = max(t_min, state.get("pour_min_time", 0.0))
         t_end = t0 + c["plate_settle_max_time" if plate else "settle_max_time"]
 
         def settled(sim):
