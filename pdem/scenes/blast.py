@@ -7,18 +7,21 @@ is ``[simulation] law = "viscous"`` with materials ``grain``, ``plate``, ``wall`
 
 1. ``pour``     a seeded loose cloud of spheres (diameters ``diameter_min``..``diameter_max``)
                 falls into the box (ceiling = floor wall at z = 0, four side walls) and settles
-                with Cundall damping ``prep_damping`` (preparation only), not before the top of
+                (optional Cundall damping ``prep_damping``, preparation only; default 0: the
+                viscous law alone brings the layer to rest, while Cundall damping together with
+                the rolling springs kept a jammed column agitated in tests), not before the top of
                 the cloud could have fallen to the floor (sqrt(2 h/g)). With
-                ``prep_stiffness_factor`` < 1 the preparation runs with the stiffnesses (k_n,
-                k_s, k_θ; E) times that factor (a longer Δt); the plate stages make the contacts
-                again with the full stiffness.
+                ``prep_stiffness_factor`` < 1 the pour runs with the stiffnesses (k_n, k_s, k_θ;
+                E) times that factor (a longer Δt); the settle stage makes every contact again
+                at the full stiffness.
 2. ``settle``   the spheres whose top is above the layer height ``box[2]`` are removed; settle
                 again. The layer at the end of this stage is the *prepared layer*: it is also
                 written to ``prepared_layer/`` of the run directory.
 3. per plate k of ``plates`` (areal masses [kg/m²]), starting again from the prepared layer:
    ``plate_k``  the cover plate (a rigid box spanning the box, z translation only, mass =
                 areal mass × box area) is placed on the highest grain and settles under its
-                weight (Cundall damping ``prep_damping`` on grains and plate) until the grains'
+                weight (Cundall damping ``plate_damping`` on the plate only: without it a heavy
+                plate bounces on the stiff layer for long) until the grains'
                 unbalanced force ratio and the plate's (|F_grains + m g|/(m g)) are below
                 ``plate_settle_ratio``;
    ``blast_k``  no Cundall damping (only the law's viscous damping, as in the paper); the plate
@@ -66,8 +69,9 @@ DEFAULTS = {
     "seed": 1,
     "packing_fraction": 0.6,           # solid fraction assumed to size the cloud [-]
     "overfill": 1.1,                   # cloud volume / layer volume [-]
-    "prep_damping": 0.3,               # Cundall lambda_D of the preparation stages [-]
-    "prep_stiffness_factor": 1.0,      # pour and settle with the materials' stiffness times this [-]
+    "prep_damping": 0.0,               # Cundall lambda_D of the preparation stages [-] (see the docstring)
+    "prep_stiffness_factor": 1.0,      # pour with the materials' stiffness times this [-]
+    "plate_damping": 0.7,              # Cundall lambda_D of the plate (only) while it settles [-]
     "settle_ratio": 0.01, "settle_min_time": 0.05, "settle_max_time": 1.0, "check_every": 200,
     "plate_settle_ratio": 0.01, "plate_settle_min_time": 0.02, "plate_settle_max_time": 0.2,
     "plates": [10780.0],               # areal masses of the cover plates [kg/m^2]
@@ -81,7 +85,7 @@ PREP_STAGES = ("pour", "settle")
 PREPARED_DIR = "prepared_layer"
 # what must agree between a prepared layer and the run that loads it
 PREPARED_KEYS = ("box", "grain_material", "wall_material", "diameter_min", "diameter_max", "seed",
-                 "packing_fraction", "overfill", "prep_stiffness_factor", "prep_damping")
+                 "packing_fraction", "overfill", "prep_stiffness_factor", "prep_damping", "settle_ratio")
 STIFFNESS_KEYS = ("kn", "ks", "rolling_stiffness", "young")  # scaled by prep_stiffness_factor
 
 
@@ -105,6 +109,7 @@ def blast_settings(doc):
     for k in ("settle_min_time", "plate_settle_min_time"):
         c[k] = number(f"blast.{k}", c[k], 0.0)
     c["prep_damping"] = number("blast.prep_damping", c["prep_damping"], 0.0, 0.99, allow="in [0, 0.99] (Cundall's lambda_D)")
+    c["plate_damping"] = number("blast.plate_damping", c["plate_damping"], 0.0, 0.99, allow="in [0, 0.99] (Cundall's lambda_D)")
     c["prep_stiffness_factor"] = number("blast.prep_stiffness_factor", c["prep_stiffness_factor"], 0.0, 1.0,
                                         lo_open=True, allow="in (0, 1]")
     for k in ("seed", "check_every", "record_every"):
@@ -169,7 +174,7 @@ def stage_scene(doc, c, stage, tables, plate_mass=None, load=None, plate_center=
     """The `Scene` of ``stage`` holding the spheres of ``tables``: the file's materials and
     settings, the ceiling and four side walls, and (plate and blast stages) the cover plate."""
     base = {k: v for k, v in doc.items() if k in ("simulation", "materials", "material_pairs")}
-    if stage in PREP_STAGES and c["prep_stiffness_factor"] != 1.0:
+    if stage == "pour" and c["prep_stiffness_factor"] != 1.0:
         f = c["prep_stiffness_factor"]
         base["materials"] = {name: {k: v * f if k in STIFFNESS_KEYS else v for k, v in m.items()}
                              for name, m in base["materials"].items()}
@@ -187,7 +192,7 @@ def stage_scene(doc, c, stage, tables, plate_mass=None, load=None, plate_center=
     if plate_mass is not None:
         center, half = plate_geometry(c, 0.0)
         scene.add_box(plate_center, half, c["plate_material"], plate_mass * lx * ly, blocked="xyXYZ", load=load,
-                      damping=0.0 if blast else c["prep_damping"], name="plate")
+                      damping=0.0 if blast else c["plate_damping"], name="plate")
     scene.add_sphere_columns(tables["particles"])
     return scene
 
@@ -327,12 +332,12 @@ class BlastRun(StagedRun):
             return tables, f"poured {len(radius)} spheres"
         if stage == "settle":
             tables, removed = remove_above(tables, c["box"][2])
+            if c["prep_stiffness_factor"] != 1.0:  # the soft pour's contacts are made again at full stiffness
+                tables = {k: v for k, v in tables.items() if not k.startswith("contacts/")}
             return tables, f"removed {removed} spheres above {c['box'][2]} m"
         if stage.startswith("plate"):
             tables, meta = read_prepared(state["prepared"], c, self.doc["materials"])
-            # a softer preparation's contacts carry its stiffness: they are made again
-            soft = c["prep_stiffness_factor"] != 1.0
-            tables = {k: v for k, v in tables.items() if k != "boxes" and not (soft and k.startswith("contacts/"))}
+            tables = {k: v for k, v in tables.items() if k != "boxes"}
             self.restart_clock(meta)
             p = tables["particles"]
             top = float(np.max(p["pos"][:, 2] + p["radius"]))
