@@ -46,6 +46,7 @@ from math import ceil, pi
 from pathlib import Path
 
 import numpy as np
+
 from analysis.schema import BLAST_RUN_SERIES, PREPARATION_SERIES, write_blast_parameters
 
 from ..config import check_keys, run_settings, scene_from_dict
@@ -54,10 +55,21 @@ from ..driver import observables
 from ..driver.plain import write_snapshot
 from ..driver.plots import plot_energy, save_figure, series_figure
 from ..driver.results import series_writer, write_root_attrs
-from ..driver.stages import StagedRun, append_bodies, check_no_steps, empty_tables, remove_above
+from ..driver.stages import (
+    StagedRun,
+    append_bodies,
+    check_no_steps,
+    empty_tables,
+    remove_above,
+)
 from ..errors import InputError, InstabilityError
 from ..generators import loose_cloud
-from ..io.checkpoint import CheckpointError, list_checkpoints, read_checkpoint, write_checkpoint
+from ..io.checkpoint import (
+    CheckpointError,
+    list_checkpoints,
+    read_checkpoint,
+    write_checkpoint,
+)
 from ..loads import Impulse
 from ..validate import number
 
@@ -154,7 +166,7 @@ def cloud(c):
     r_lo, r_hi = radius_range(c)
     r_mean, spread = 0.5 * (r_lo + r_hi), (r_hi - r_lo) / (r_lo + r_hi)
     mean_r3 = r_mean ** 3 if spread == 0 else (r_hi ** 4 - r_lo ** 4) / (4 * (r_hi - r_lo))
-    n = max(int(ceil(c["overfill"] * c["packing_fraction"] * lx * ly * h / (4.0 / 3.0 * pi * mean_r3))), 1)
+    n = max(ceil(c["overfill"] * c["packing_fraction"] * lx * ly * h / (4.0 / 3.0 * pi * mean_r3)), 1)
     a = 2 * r_hi * 1.05
     per_layer = np.floor(lx / a) * np.floor(ly / a)
     if per_layer < 1:
@@ -190,7 +202,7 @@ def stage_scene(doc, c, stage, tables, plate_mass=None, load=None, plate_center=
     scene.add_wall("y", 0.0, w, sense=1, name="y_min")
     scene.add_wall("y", ly, w, sense=-1, name="y_max")
     if plate_mass is not None:
-        center, half = plate_geometry(c, 0.0)
+        _, half = plate_geometry(c, 0.0)
         scene.add_box(plate_center, half, c["plate_material"], plate_mass * lx * ly, blocked="xyXYZ", load=load,
                       damping=0.0 if blast else c["plate_damping"], name="plate")
     scene.add_sphere_columns(tables["particles"])
@@ -342,8 +354,8 @@ class BlastRun(StagedRun):
             p = tables["particles"]
             top = float(np.max(p["pos"][:, 2] + p["radius"]))
             state["plate_center"] = plate_geometry(c, top)[0].tolist()
-            return tables, f"from the prepared layer {state['prepared']}: placed the plate of {self.plate_of(stage):g} " \
-                           f"kg/m^2 on the highest grain (z = {top:.4f} m)"
+            return tables, (f"from the prepared layer {state['prepared']}: placed the plate of {self.plate_of(stage):g} "
+                            f"kg/m^2 on the highest grain (z = {top:.4f} m)")
         if stage.startswith("blast"):
             state["blast_t0"] = float(self.meta["time"]) if self.meta else 0.0
         return tables, ""

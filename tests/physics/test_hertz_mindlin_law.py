@@ -14,9 +14,9 @@ import math
 
 import numpy as np
 import pytest
+from physics_scenes import sphere_mass
 
 from pdem import InputError, Scene
-from physics_scenes import sphere_mass
 
 R, RHO, E, NU = 0.005, 2500.0, 1e8, 0.3
 E_W, NU_W = 2e8, 0.25

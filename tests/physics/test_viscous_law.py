@@ -15,11 +15,10 @@ import math
 
 import numpy as np
 import pytest
-
-from pdem import InputError, Scene
-from pdem import timestep
-from pdem.contact import viscous
 from physics_scenes import sphere_mass
+
+from pdem import InputError, Scene, timestep
+from pdem.contact import viscous
 
 R, RHO, KN, KS = 0.005, 2000.0, 5.6e6, 2.0e6
 M = sphere_mass(R, RHO)

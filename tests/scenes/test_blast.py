@@ -16,10 +16,10 @@ from pathlib import Path
 import h5py
 import numpy as np
 import pytest
+from pdem_cli import run_pdem
 
 from analysis.blast import analyse_blast
 from analysis.groups import read_blast
-from pdem_cli import run_pdem
 
 SCENE = (Path(__file__).with_name("blast_ci.toml")).read_text()
 AREA = 0.06 * 0.06

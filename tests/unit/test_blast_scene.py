@@ -1,11 +1,11 @@
 """Pieces of the blast scene (`pdem.scenes.blast`) that need no run: settings, stage list, the
 plate-step stop and the prepared layer's clock."""
-import tomllib
 from pathlib import Path
 from types import SimpleNamespace
 
 import numpy as np
 import pytest
+import tomllib
 
 from pdem import InputError, InstabilityError
 from pdem.scenes import blast
@@ -19,7 +19,7 @@ def test_defaults_of_the_job_file():
     assert c["F0"] == 9e6 and c["tau"] == 1e-4 and c["duration"] == 9e-3
     assert blast.stages(c) == ("pour", "settle", "plate_0", "blast_0", "plate_1", "blast_1", "plate_2", "blast_2")
     assert blast.stages({**c, "prepared_from": "x", "plates": [244.0]}) == ("plate_0", "blast_0")
-    pos, radius = blast.cloud(c)
+    _, radius = blast.cloud(c)
     assert radius.min() >= 0.0045 and radius.max() <= 0.005
     # the cloud holds the layer at the assumed packing fraction, overfilled by 10 %
     assert np.sum(4 / 3 * np.pi * radius ** 3) == pytest.approx(1.1 * 0.6 * 0.027, rel=1e-3)
