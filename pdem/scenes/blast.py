@@ -3,7 +3,9 @@ in a rigid box, a rigid cover plate on top hit by F(t) = F0 (1 − t/τ), the st
 ceiling below it, on any number of ranks.
 
 A scene file with a ``[blast]`` table (keys and defaults in `DEFAULTS`, units SI; the contact law
-is ``[simulation] law = "viscous"`` with materials ``grain``, ``plate``, ``wall`` by default) runs:
+is ``[simulation] law = "viscous"`` with materials ``grain``, ``plate``, ``wall`` by default, and
+``side_material`` for the four side walls: the jobs make them frictionless, the symmetry planes
+of a slice of a wide layer) runs:
 
 1. ``pour``     a seeded loose cloud of spheres (diameters ``diameter_min``..``diameter_max``)
                 falls into the box (ceiling = floor wall at z = 0, four side walls) and settles
@@ -23,7 +25,7 @@ is ``[simulation] law = "viscous"`` with materials ``grain``, ``plate``, ``wall`
                 weight (Cundall damping ``plate_damping`` on the plate only: without it a heavy
                 plate bounces on the stiff layer for long) until the grains'
                 unbalanced force ratio and the plate's (|F_grains + m g|/(m g)) are below
-                ``plate_settle_ratio``;
+                ``plate_settle_ratio`` and the plate is slower than ``plate_settle_velocity``;
    ``blast_k``  no Cundall damping (only the law's viscous damping, as in the paper); the plate
                 carries F(t) = F0 (1 − t/τ) downwards for ``duration`` [s] after the stage starts.
 
@@ -77,6 +79,7 @@ from ..validate import number
 DEFAULTS = {
     "box": [0.3, 0.3, 0.3],            # inner x, y [m] and the layer height z [m]
     "grain_material": "grain", "plate_material": "plate", "wall_material": "wall",
+    "side_material": "",               # the four side walls ("": wall_material)
     "diameter_min": 0.009, "diameter_max": 0.010,   # [m], uniform
     "seed": 1,
     "packing_fraction": 0.6,           # solid fraction assumed to size the cloud [-]
@@ -86,6 +89,7 @@ DEFAULTS = {
     "plate_damping": 0.7,              # Cundall lambda_D of the plate (only) while it settles [-]
     "settle_ratio": 0.01, "settle_min_time": 0.05, "settle_max_time": 1.0, "check_every": 200,
     "plate_settle_ratio": 0.01, "plate_settle_min_time": 0.02, "plate_settle_max_time": 0.2,
+    "plate_settle_velocity": 1e-3,     # and the plate slower than this [m/s]
     "plates": [10780.0],               # areal masses of the cover plates [kg/m^2]
     "plate_thickness": 0.02,           # [m], geometry only (the mass is areal mass x area)
     "F0": 9.0e6, "tau": 1.0e-4,        # F(t) = F0 (1 - t/tau) [N], [s]
@@ -96,7 +100,7 @@ DEFAULTS = {
 PREP_STAGES = ("pour", "settle")
 PREPARED_DIR = "prepared_layer"
 # what must agree between a prepared layer and the run that loads it
-PREPARED_KEYS = ("box", "grain_material", "wall_material", "diameter_min", "diameter_max", "seed",
+PREPARED_KEYS = ("box", "grain_material", "wall_material", "side_material", "diameter_min", "diameter_max", "seed",
                  "packing_fraction", "overfill", "prep_stiffness_factor", "prep_damping", "settle_ratio")
 STIFFNESS_KEYS = ("kn", "ks", "rolling_stiffness", "young")  # scaled by prep_stiffness_factor
 
@@ -112,10 +116,13 @@ def blast_settings(doc):
         raise InputError(f"blast.box = {v!r}: must be [x, y, layer height] lengths > 0 [m]")
     c["box"] = [number("blast.box", x, 0.0, lo_open=True, allow="[x, y, layer height] lengths > 0 [m]") for x in v]
     materials = doc.get("materials", {})
-    for k in ("grain_material", "plate_material", "wall_material"):
+    if c["side_material"] == "":
+        c["side_material"] = c["wall_material"]
+    for k in ("grain_material", "plate_material", "wall_material", "side_material"):
         if not isinstance(c[k], str) or c[k] not in materials:
             raise InputError(f"blast.{k} = {c[k]!r}: no [materials.{c[k]}] table in the scene file")
     for k in ("diameter_min", "diameter_max", "packing_fraction", "overfill", "settle_ratio", "settle_max_time",
+              "plate_settle_velocity",
               "plate_settle_ratio", "plate_settle_max_time", "plate_thickness", "F0", "tau", "duration"):
         c[k] = number(f"blast.{k}", c[k], 0.0, lo_open=True)
     for k in ("settle_min_time", "plate_settle_min_time"):
@@ -195,8 +202,8 @@ def stage_scene(doc, c, stage, tables, plate_mass=None, load=None, plate_center=
                           "damping": 0.0 if blast else c["prep_damping"]}
     scene = scene_from_dict(base)
     lx, ly, _ = c["box"]
-    w = c["wall_material"]
-    scene.add_wall("z", 0.0, w, sense=1, name="ceiling")
+    w = c["side_material"]
+    scene.add_wall("z", 0.0, c["wall_material"], sense=1, name="ceiling")
     scene.add_wall("x", 0.0, w, sense=1, name="x_min")
     scene.add_wall("x", lx, w, sense=-1, name="x_max")
     scene.add_wall("y", 0.0, w, sense=1, name="y_min")
@@ -415,7 +422,7 @@ class BlastRun(StagedRun):
                 return True
             if sim.time - t0 < t_min or observables.unbalanced_force(sim) >= ratio:
                 return False
-            return not plate or plate_balance(sim) < ratio
+            return not plate or (plate_balance(sim) < ratio and abs(sim.boxes.velocity[0, 2]) < c["plate_settle_velocity"])
 
         return on_step, settled, c["check_every"], t_end
 
