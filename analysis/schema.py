@@ -123,6 +123,9 @@ BOX_TEST_SERIES = {"step": "-", "time": "s", "dt": "s", "sleeper_load": "N", "sl
                    "sleeper_settlement": "m", "kinetic_energy": "J", "contacts_per_particle": "-"}
 PREPARATION_SERIES = {"step": "-", "time": "s", "stage": "-", "n_spheres": "-", "kinetic_energy": "J",
                       "unbalanced_force": "-", "contacts_per_particle": "-", "bed_top": "m", "sleeper_z": "m"}
+# the blast run's record (kind "blast", pdem.scenes.blast): time 0 at the start of the impulse
+BLAST_RUN_SERIES = {"step": "-", "time": "s", "dt": "s", "plate_position": "m", "plate_velocity": "m/s",
+                    "ceiling_stress": "Pa", "input_force": "N", "kinetic_energy": "J"}
 CYCLE_COLUMNS = {**CYCLE_UNITS, **CYCLE_OPTIONAL_UNITS}
 REQUIRED_SERIES = ("time", "step")
 BOX_SERIES = ("sleeper_load", "sleeper_force", "sleeper_settlement")

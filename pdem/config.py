@@ -12,7 +12,10 @@ Values are typed strictly: numbers are numbers (``true`` is not 1), booleans are
     [run]          steps, progress_every, output_every, snapshot_every, checkpoint_every,
                    checkpoint_every_s, checkpoint_keep, kind
     [materials.NAME] density [kg/m³] and the law's keys (linear: young [Pa], poisson [-],
-                   friction_angle [rad])
+                   friction_angle [rad]; viscous and hertz_mindlin: `pdem.contact.viscous`,
+                   `pdem.contact.hertz_mindlin`)
+    [[material_pairs]] materials = [NAME, NAME] and values of the law's per-pair keys
+                   (hertz_mindlin: restitution, friction, rolling_friction)
     [[walls]]      axis ("x"|"y"|"z"), position [m], material, sense (-1|0|1), velocity [m/s]
     [[facets]]     vertices [[m]×3], material, velocity [m/s]
     [[spheres]]    pos [[m]], radius [m] or [[m]], material, fixed, vel [m/s]
@@ -34,7 +37,7 @@ WALL_KEYS = {"axis", "position", "material", "sense", "velocity"}
 FACET_KEYS = {"vertices", "material", "velocity"}
 SPHERE_KEYS = {"pos", "radius", "material", "fixed", "vel"}
 DEPOSITION_KEYS = {"box_lo", "box_hi", "count", "radius", "radius_spread", "seed", "material", "walls_material"}
-TOP_KEYS = {"simulation", "run", "materials", "walls", "facets", "spheres", "deposition"}
+TOP_KEYS = {"simulation", "run", "materials", "material_pairs", "walls", "facets", "spheres", "deposition"}
 AXES = {"x": 0, "y": 1, "z": 2}
 
 
@@ -113,6 +116,7 @@ def scene_from_dict(doc, scene_tables=()):
         if "density" not in m:
             raise InputError(f"materials.{name}.density: required key is missing")
         scene.material(name=name, **m)
+    add_material_pairs(scene, doc)
     for k, w in enumerate(_table_list("walls", doc.get("walls", []))):
         check_keys(f"walls[{k}]", w, WALL_KEYS, ("axis", "position", "material"))
         scene.add_wall(w["axis"], w["position"], w["material"], sense=w.get("sense", 0),
@@ -126,6 +130,15 @@ def scene_from_dict(doc, scene_tables=()):
     if "deposition" in doc:
         add_deposition(scene, doc["deposition"])
     return scene
+
+
+def add_material_pairs(scene, doc):
+    """The [[material_pairs]] tables: per-pair values of the law's PAIR_KEYS."""
+    for k, t in enumerate(_table_list("material_pairs", doc.get("material_pairs", []))):
+        names = t.get("materials") if isinstance(t, dict) else None
+        if not (isinstance(names, list) and len(names) == 2 and all(isinstance(n, str) for n in names)):
+            raise InputError(f"material_pairs[{k}].materials = {names!r}: must be two material names")
+        scene.material_pair(names[0], names[1], **{key: v for key, v in t.items() if key != "materials"})
 
 
 def add_deposition(scene, d):

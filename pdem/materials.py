@@ -6,6 +6,12 @@ A material is a density ρ [kg/m³] plus the properties the scene's contact law 
 Per-contact parameters are computed from the two materials once, when a contact is created
 (Yade's Ip2), by the law from the table `MaterialTable.props` (one row per material, one column
 per law key, in the law's order).
+
+Pair values: a law with ``PAIR_KEYS`` (e.g. Hertz–Mindlin's restitution and friction, which
+LIGGGHTS and EDEM define per pair of materials) may have them set per pair of materials
+(`MaterialTable.set_pair`); an unset pair gets ``law.combine(key, value_a, value_b)``. `props`
+then appends, for every material row a, the pair values with each partner b: column
+``n_keys + b·len(PAIR_KEYS) + k`` holds key k of the pair (a, b) (`pair_column`).
 """
 from dataclasses import dataclass
 
@@ -35,6 +41,7 @@ class MaterialTable:
         self.law = law
         self.materials = []
         self.names = []
+        self.pairs = {}  # (a, b) with a <= b -> {key: value} (law.PAIR_KEYS only)
 
     def add(self, name, density, values):
         """Validate and append a material; returns its index. ``values``: the law's keys."""
@@ -58,13 +65,46 @@ class MaterialTable:
         self.names.append(name or str(len(self.names)))
         return len(self.materials) - 1
 
+    def set_pair(self, a, b, values, label="material_pairs"):
+        """Values of ``law.PAIR_KEYS`` for the pair of materials a, b (indices), checked like a
+        material's keys."""
+        keys = self.law.PAIR_KEYS
+        for k, v in values.items():
+            if k not in keys:
+                raise InputError(f"{label}.{k}: not a per-pair key of the {self.law.NAME} law; allowed: "
+                                 f"{', '.join(keys) or 'none'}")
+            allow, test = self.law.MATERIAL_KEYS[k]
+            x = number(f"{label}.{k}", v, allow=allow)
+            if not test(x):
+                raise InputError(f"{label}.{k} = {v!r}: must be {allow}")
+            self.pairs.setdefault((min(a, b), max(a, b)), {})[k] = x
+
     def __len__(self):
         return len(self.materials)
 
-    def props(self):
-        """float64 [n_materials, n_keys]: the law properties, one column per law key."""
-        return np.array([[v for _, v in m.properties] for m in self.materials], np.float64).reshape(
-            len(self.materials), len(self.law.MATERIAL_KEYS))
+    def props(self, scale=None):
+        """float64 [n_materials, n_keys (+ n_materials·len(PAIR_KEYS))]: the law properties,
+        one column per law key, then the pair values (module docstring). ``scale``: {key:
+        factor} multiplies that key's column (and its pair values)."""
+        keys = list(self.law.MATERIAL_KEYS)
+        base = np.array([[v for _, v in m.properties] for m in self.materials], np.float64).reshape(
+            len(self.materials), len(keys))
+        for key, factor in (scale or {}).items():
+            base[:, keys.index(key)] *= float(factor)
+        pair_keys = self.law.PAIR_KEYS
+        if not pair_keys:
+            return base
+        n, npk = len(self.materials), len(pair_keys)
+        pairs = np.zeros((n, n * npk))
+        for a in range(n):
+            for b in range(n):
+                given = self.pairs.get((min(a, b), max(a, b)), {})
+                for k, key in enumerate(pair_keys):
+                    col = keys.index(key)
+                    v = given[key] * float((scale or {}).get(key, 1.0)) if key in given else \
+                        self.law.combine(key, base[a, col], base[b, col])
+                    pairs[a, b * npk + k] = v
+        return np.concatenate([base, pairs], axis=1)
 
     def density(self):
         return np.array([m.density for m in self.materials], np.float64)
@@ -74,5 +114,16 @@ class MaterialTable:
         return self.props()[:, list(self.law.MATERIAL_KEYS).index(key)]
 
     def spec(self):
-        """JSON-able list of the materials (name, density, the law's keys)."""
-        return [dict(name=n, density=m.density, **dict(m.properties)) for n, m in zip(self.names, self.materials)]
+        """JSON-able list of the materials (name, density, the law's keys; per-pair values under
+        ``pairs`` when some are set)."""
+        out = [dict(name=n, density=m.density, **dict(m.properties)) for n, m in zip(self.names, self.materials)]
+        for (a, b), values in sorted(self.pairs.items()):
+            out[a].setdefault("pairs", {})[self.names[b]] = dict(values)
+            if a != b:
+                out[b].setdefault("pairs", {})[self.names[a]] = dict(values)
+        return out
+
+
+def pair_column(n_keys, n_pair_keys, b, k):
+    """Column of `MaterialTable.props` holding pair key k of a material row with partner b."""
+    return n_keys + b * n_pair_keys + k

@@ -93,6 +93,13 @@ class Scene:
         (linear: ``young`` [Pa], ``poisson`` [-], ``friction_angle`` [rad])."""
         return self.materials.add(name, density, properties)
 
+    def material_pair(self, a, b, **values):
+        """Set the law's per-pair keys (``law.PAIR_KEYS``, e.g. Hertz–Mindlin's ``restitution``
+        and ``friction``) for the pair of materials a, b (names or indices)."""
+        ia = self._material_index("material_pairs.materials[0]", a)
+        ib = self._material_index("material_pairs.materials[1]", b)
+        self.materials.set_pair(ia, ib, values, label=f"material_pairs.{self.material_names[ia]}-{self.material_names[ib]}")
+
     def _material_index(self, label, m):
         if isinstance(m, str):
             if m not in self.material_names:

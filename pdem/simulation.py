@@ -267,13 +267,12 @@ class Simulation:
         return checkpoint_state.load_state(self, tables)
 
     def set_friction_scale(self, factor):
-        """Friction angles of every material times ``factor`` [-], for new contacts and (Ip2 again
-        for tan φ) for the existing ones: the vibration stage of the thesis (4.2) lowers friction
+        """The law's friction key of every material (and material pair) times ``factor`` [-] (the
+        linear law's friction angle, the other laws' μ), for new contacts and (Ip2 again for the
+        friction) for the existing ones: the vibration stage of the thesis (4.2) lowers friction
         tenfold and restores it with factor 1."""
         law = self.law
-        col = list(law.MATERIAL_KEYS).index(law.FRICTION_KEY)
-        self.props = self.materials.props()
-        self.props[:, col] *= float(factor)
+        self.props = self.materials.props(scale={law.FRICTION_KEY: factor})
         p = self.particles
         for kind in self.kinds:
             c = kind.contacts

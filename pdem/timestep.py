@@ -2,14 +2,18 @@
 
 - Before contacts exist: the P-wave estimate Δt_p = min_i r_i / sqrt(E_i/ρ_i) (Yade's
   PWaveTimeStep, ρ from the body's mass and volume, fixed spheres included; E is the law's
-  ``PWAVE_KEY`` material property).
+  ``pwave_modulus`` of its ``PWAVE_KEY`` material property: Young's modulus itself for the
+  linear and Hertz–Mindlin laws, k_n/r for the viscous law whose materials give a stiffness).
 - Afterwards: a global-stiffness estimate (Yade's GlobalStiffnessTimeStepper). Each body sums
   the stiffness of its real contacts, K_t,a = Σ [k_s + (k_n − k_s) n_a²] and
   K_r,a = Σ k_s (1 − n_a²) ℓ² (ℓ the contact radius), and Δt_k = sqrt(min(m/max_a K_t,a,
   min_a I/K_r,a)). For one degree of freedom the critical step is 2·sqrt(m/k); the sum over a
   body's contacts bounds the coupled system (Gershgorin: ω_max² ≤ 2 K/m), so Δt_k is safe with
   a margin of √2 and a safety factor s ≤ 1 on top (default 0.8, Yade's default). (k_n, k_s) of
-  each contact come from the law (`law.stiffness`), the normal from the contact's history.
+  each contact come from the law (`law.dt_stiffness`: the linear law's k_n, k_s; a law with
+  viscous damping raises them by 1/(sqrt(1 + η²) − η)², which turns 2/ω into the damped
+  critical step (2/ω)(sqrt(1 + η²) − η), and adds its rolling stiffness), the normal from the
+  contact's history.
 Walls, facets, boxes and stiff materials (steel at 10 E) are all in the sums (every contact
 kind of `Simulation.kinds`, in the order forces are summed). The simulation never lets Δt
 exceed Δt_p itself (`update_dt`): in a loose cloud the few contacts present allow a long step
@@ -24,12 +28,13 @@ from .state import DOF_ALL
 
 
 @njit(cache=True)
-def pwave_dt(n_local, radius, mass, material, young):
+def pwave_dt(n_local, radius, mass, young):
+    """min over bodies of r / sqrt(E/ρ), E [Pa] per body (``young[b]``)."""
     dt = np.inf
     for b in range(n_local):
         r = radius[b]
         rho = mass[b] / (4.0 / 3.0 * pi * r * r * r)
-        dt = min(dt, r / sqrt(young[material[b]] / rho))
+        dt = min(dt, r / sqrt(young[b] / rho))
     return dt
 
 
@@ -94,7 +99,7 @@ def contact_dt(sim):
     kr = np.zeros((nl, 3))
     for kind in sim.kinds:
         c = kind.contacts
-        kn, ks = sim.law.stiffness(c.params[: c.n], c.history[: c.n], c.overlap[: c.n])
+        kn, ks = sim.law.dt_stiffness(c.params[: c.n], c.history[: c.n], c.overlap[: c.n])
         add_stiffness(nl, p.blocked, p.radius, kind.ptr, kind.rows, c.state, kn, ks, c.history, kind.normal_column,
                       kt, kr)
     return stiffness_dt(nl, p.mass, p.inertia, p.blocked, kt, kr)
@@ -114,8 +119,9 @@ def update_dt(sim, force=False):
     if boxes is not None:  # the box's own mass–spring step, from the global sum of its contacts
         k_dt = min(k_dt, box_dt(sim.boxes.mass, sim.boxes.blocked, boxes.stiffness_totals(sim.comm)))
     k_dt = sim.comm.allreduce_min(k_dt)
-    young = sim.materials.column(sim.law.PWAVE_KEY)
-    pw = sim.comm.allreduce_min(pwave_dt(p.n_local, p.radius, p.mass, p.material, young))
+    nl = p.n_local
+    young = sim.law.pwave_modulus(sim.materials.column(sim.law.PWAVE_KEY)[p.material[:nl]], p.radius[:nl])
+    pw = sim.comm.allreduce_min(pwave_dt(nl, p.radius, p.mass, young))
     # never above the P-wave step itself: a body whose few contacts allow a long step can
     # gain many more within dt_interval steps (a sphere landing on a bed)
     sim.dt = min(sim.dt_safety * k_dt, pw) if np.isfinite(k_dt) else sim.pwave_factor * pw

@@ -11,6 +11,23 @@ overlap) -> (kn, ks)`` (time step), ``elastic_energy(params, history, overlap)``
 ``contact_forces(params, history, overlap, normal) -> (normal force, shear force)`` and
 ``PARAM_NAMES`` (name -> parameter column) for `Simulation.contacts`, and, with a friction key, ``set_friction(n, mat_i, mat_j, props, params)``.
 
+Added for the viscous and Hertz–Mindlin laws (issue 12):
+
+- ``CONTACT_POINT_VELOCITY``: if true, the loop passes the relative velocity at the contact point
+  without Yade's ratcheting factor α (`geometry` ``contact_velocity``), so ``vn`` is the true
+  approach velocity (negative while approaching) that a dashpot needs; false keeps Yade's
+  (linear law, bit for bit).
+- ``PAIR_KEYS`` and ``combine(key, a, b)``: material keys that may be set per pair of materials
+  (`pdem.materials.MaterialTable.set_pair`; unset pairs get ``combine``); ``ip2`` reads them from
+  the pair columns of ``props`` (`pdem.materials.pair_column`).
+- ``dt_stiffness(params, history, overlap) -> (kn, ks)``: what the automatic time step sees;
+  a damped law raises its stiffness by 1/(sqrt(1+η²) − η)² (the damped critical step) and a
+  rolling law adds its rolling stiffness (`pdem.timestep`).
+- ``pwave_modulus(values, radius)``: the modulus [Pa] of the P-wave step of each body from its
+  material's ``PWAVE_KEY`` value (E itself, or k_n/r for a law whose materials give stiffness).
+- ``force`` gets ``wrx, wry, wrz`` = ω2 − ω1 (relative spin) and returns the moment on body 1;
+  with ``MOMENT`` the loop applies it as a couple (+m on body 1, −m on body 2).
+
 A new law is its own module plus one line in `LAWS` (or `register_law(module)` at run time, as
 tests/unit/test_law_plugin.py does). Importing this package compiles nothing.
 """
@@ -19,9 +36,11 @@ from types import ModuleType
 
 from ..errors import InputError
 
-LAWS = {"linear": "pdem.contact.linear"}
+LAWS = {"linear": "pdem.contact.linear", "viscous": "pdem.contact.viscous",
+        "hertz_mindlin": "pdem.contact.hertz_mindlin"}
 REQUIRED = ("NAME", "N_PARAMS", "HISTORY", "MOMENT", "MATERIAL_KEYS", "PWAVE_KEY", "FRICTION_KEY", "ip2", "force",
-            "stiffness", "elastic_energy", "contact_forces", "PARAM_NAMES")
+            "stiffness", "elastic_energy", "contact_forces", "PARAM_NAMES", "CONTACT_POINT_VELOCITY", "PAIR_KEYS",
+            "combine", "dt_stiffness", "pwave_modulus")
 
 
 def register_law(module):

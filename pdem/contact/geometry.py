@@ -18,6 +18,12 @@ loop (`pdem.contact.loops`) calls; a geometry knows nothing of forces (that is t
     with respect to body 1 at the contact, before the normal part is removed (sphere–sphere,
     wall and box: Yade's avoidGranularRatcheting with full-radius levers and the factor
     α = (r1+r2)/(r1+r2−pen); facet: at the contact point, no ratcheting correction).
+``contact_velocity(i, j, nx, ny, nz, pen, pos, vel, angvel, radius, other_f)`` [m/s]: the same
+    relative velocity taken at the contact point in the middle of the overlap, without the
+    ratcheting factor: (v2 − v1) − (l1 ω1 + l2 ω2) × n with the levers below (LIGGGHTS's
+    surface model, tests/validation/liggghts_reference/NOTES.md §3.1, §5). Its normal part is the
+    true approach velocity that a viscous dashpot needs; laws with ``CONTACT_POINT_VELOCITY``
+    get this one.
 ``levers(i, j, pen, radius) -> (l1, l2)`` [m]: torque lever arms r − pen/2 (Law2's
     sphericalBodies branch; the facet's body-1 radius is 2r but only the sphere's lever is used).
 ``TWO_PARTICLES``: body 1 is a particle (its row gets +f and torque_i, body 2 torque_j);
@@ -77,6 +83,15 @@ def _flat_relative_velocity(s, nx, ny, nz, pen, vel, angvel, radius, bvx, bvy, b
     return ax + bx, ay + by, az + bz
 
 
+@njit(inline="always", cache=True)
+def _flat_contact_velocity(s, nx, ny, nz, pen, vel, angvel, radius, bvx, bvy, bvz):
+    """A sphere on a flat boundary moving at (bvx, bvy, bvz), at the contact point: v − v_b −
+    (r − pen/2) ω × n."""
+    lever = radius[s] - 0.5 * pen
+    cx, cy, cz = cross3(lever * angvel[s, 0], lever * angvel[s, 1], lever * angvel[s, 2], nx, ny, nz)
+    return (vel[s, 0] - bvx) - cx, (vel[s, 1] - bvy) - cy, (vel[s, 2] - bvz) - cz
+
+
 # ---------------------------------------------------------------------------- sphere–sphere
 @njit(inline="always", cache=True)
 def _ss_contact(fresh, i, j, pos, radius, other_f, other_i):
@@ -120,6 +135,17 @@ def _ss_relative_velocity(i, j, nx, ny, nz, pen, pos, vel, angvel, radius, other
 
 
 @njit(inline="always", cache=True)
+def _ss_contact_velocity(i, j, nx, ny, nz, pen, pos, vel, angvel, radius, other_f):
+    l1 = radius[i] - 0.5 * pen
+    l2 = radius[j] - 0.5 * pen
+    wx = l1 * angvel[i, 0] + l2 * angvel[j, 0]
+    wy = l1 * angvel[i, 1] + l2 * angvel[j, 1]
+    wz = l1 * angvel[i, 2] + l2 * angvel[j, 2]
+    cx, cy, cz = cross3(wx, wy, wz, nx, ny, nz)
+    return (vel[j, 0] - vel[i, 0]) - cx, (vel[j, 1] - vel[i, 1]) - cy, (vel[j, 2] - vel[i, 2]) - cz
+
+
+@njit(inline="always", cache=True)
 def _ss_levers(i, j, pen, radius):
     return radius[i] - 0.5 * pen, radius[j] - 0.5 * pen
 
@@ -133,6 +159,7 @@ class SphereSphere:
     ip2_args = _ss_ip2
     spins = _ss_spins
     relative_velocity = _ss_relative_velocity
+    contact_velocity = _ss_contact_velocity
     levers = _ss_levers
 
 
@@ -163,6 +190,12 @@ def _wall_relative_velocity(s, w, nx, ny, nz, pen, pos, vel, angvel, radius, oth
                                    other_f[w, 3])
 
 
+@njit(inline="always", cache=True)
+def _wall_contact_velocity(s, w, nx, ny, nz, pen, pos, vel, angvel, radius, other_f):
+    return _flat_contact_velocity(s, nx, ny, nz, pen, vel, angvel, radius, other_f[w, 1], other_f[w, 2],
+                                  other_f[w, 3])
+
+
 class SphereWall:
     """Ig2_Wall_Sphere_ScGeom: an infinite axis-aligned plane is body 1; contact point on the
     plane, radius1 = radius2 = r."""
@@ -173,6 +206,7 @@ class SphereWall:
     ip2_args = _wall_ip2
     spins = _sphere_spins
     relative_velocity = _wall_relative_velocity
+    contact_velocity = _wall_contact_velocity
     levers = _sphere_lever
 
 
@@ -271,6 +305,7 @@ class SphereFacet:
     ip2_args = _facet_ip2
     spins = _sphere_spins
     relative_velocity = _facet_relative_velocity
+    contact_velocity = _facet_relative_velocity  # already at the contact point, no ratcheting factor
     levers = _sphere_lever
 
 
@@ -330,6 +365,12 @@ def _box_relative_velocity(s, b, nx, ny, nz, pen, pos, vel, angvel, radius, othe
                                    other_f[b, 8])
 
 
+@njit(inline="always", cache=True)
+def _box_contact_velocity(s, b, nx, ny, nz, pen, pos, vel, angvel, radius, other_f):
+    return _flat_contact_velocity(s, nx, ny, nz, pen, vel, angvel, radius, other_f[b, 6], other_f[b, 7],
+                                  other_f[b, 8])
+
+
 class SphereBox:
     """A sphere on an axis-aligned rigid box (body 1, translating, never rotating): parameters
     and relative velocity as for a wall (radius1 = radius2 = r, ratcheting factor)."""
@@ -340,6 +381,7 @@ class SphereBox:
     ip2_args = _box_ip2
     spins = _sphere_spins
     relative_velocity = _box_relative_velocity
+    contact_velocity = _box_contact_velocity
     levers = _sphere_lever
 
 

@@ -145,7 +145,8 @@ class BoundaryContacts(ContactKind):
         ranks [N/m]."""
         nb = len(self.boundary)
         rows = self.contacts.real_rows()
-        kn, ks = self.law.stiffness(self.contacts.params[rows], self.contacts.history[rows], self.contacts.overlap[rows])
+        kn, ks = self.law.dt_stiffness(self.contacts.params[rows], self.contacts.history[rows],
+                                       self.contacts.overlap[rows])
         vals = np.zeros((len(rows), nb))
         vals[np.arange(len(rows)), self.contacts.j[rows]] = kn + ks
         return np.asarray(comm.exact_sum_rows(vals), np.float64).reshape(nb)

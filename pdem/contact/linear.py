@@ -26,6 +26,8 @@ NAME = "linear"
 N_PARAMS = 3
 HISTORY = 3
 MOMENT = False  # no rolling or twisting moment
+CONTACT_POINT_VELOCITY = False  # Yade's relative velocity (ratcheting factor, full-radius levers)
+PAIR_KEYS = ()  # no per-pair values: every parameter comes from the two materials
 # material key -> (what is allowed, test)
 MATERIAL_KEYS = {
     "young": ("a finite number > 0 [Pa]", lambda v: v > 0.0),
@@ -107,8 +109,20 @@ def force(p, fresh, nx, ny, nz, pen, vn, six, siy, siz, ox, oy, oz, tx, ty, tz, 
 
 # ---------------------------------------------------------------------------- numpy side
 def stiffness(params, history, overlap):
-    """(kn, ks) [N/m] per contact row, for the time step."""
+    """(kn, ks) [N/m] per contact row."""
     return params[:, 0], params[:, 1]
+
+
+dt_stiffness = stiffness  # no damping, no rolling: the time step sees kn, ks as they are
+
+
+def pwave_modulus(values, radius):
+    """Young's modulus [Pa] per body for the P-wave step: the material's ``young`` itself."""
+    return values
+
+
+def combine(key, a, b):
+    raise KeyError(key)  # never called: PAIR_KEYS is empty
 
 
 def contact_forces(params, history, overlap, normal):

@@ -11,7 +11,8 @@ Ig2 at the positions of the start of the step → if the pair is not in contact,
 clear the row of a contact that opened → Ip2 once, when the contact is new (parameters, and the
 creation step in the last parameter column) → ScGeom::precompute: orthonormal axis n_old × n and
 twist axis (Δt/2 n_old·(ω1+ω2)) n_old from the normal stored in the geometry's history columns,
-relative velocity without its normal part, Δu_s = v_t Δt → Law2 → outputs per row: the force on
+relative velocity (Yade's, with the ratcheting factor; or at the contact point without it for a
+law with ``CONTACT_POINT_VELOCITY``), its normal part vn passed on and removed, Δu_s = v_t Δt → Law2 → outputs per row: the force on
 body 1 (pairs of particles) or on the sphere (boundaries), torques, overlap. Rows are written
 only by their own iteration (race-free under ``prange``); `pdem.forces` sums them per body in a
 fixed order. The loop returns the largest overlap over the smaller radius of its contacts
@@ -73,7 +74,10 @@ def pair_forces(n, pi, pj, state, params, history, force, torque_i, torque_j, ov
             tx = angle * px
             ty = angle * py
             tz = angle * pz
-        rvx, rvy, rvz = GEOM_RELATIVE_VELOCITY(i, j, nx, ny, nz, pen, pos, vel, angvel, radius, other_f)  # noqa: F821
+        if LAW_CONTACT_POINT:  # noqa: F821  (compile-time constant: one branch is compiled)
+            rvx, rvy, rvz = GEOM_CONTACT_VELOCITY(i, j, nx, ny, nz, pen, pos, vel, angvel, radius, other_f)  # noqa: F821
+        else:
+            rvx, rvy, rvz = GEOM_RELATIVE_VELOCITY(i, j, nx, ny, nz, pen, pos, vel, angvel, radius, other_f)  # noqa: F821
         dn = dot3(nx, ny, nz, rvx, rvy, rvz)
         rvx = rvx - dn * nx
         rvy = rvy - dn * ny
@@ -128,6 +132,7 @@ def make_pair_loop(geometry, law):
         "GEOM_IP2_ARGS": geometry.ip2_args,
         "GEOM_SPINS": geometry.spins,
         "GEOM_RELATIVE_VELOCITY": geometry.relative_velocity,
+        "GEOM_CONTACT_VELOCITY": geometry.contact_velocity,
         "GEOM_LEVERS": geometry.levers,
         "GEOM_TWO_PARTICLES": geometry.TWO_PARTICLES,
         "LAW_IP2": law.ip2,
@@ -135,5 +140,6 @@ def make_pair_loop(geometry, law):
         "LAW_N_PARAMS": law.N_PARAMS,
         "LAW_HISTORY": law.HISTORY,
         "LAW_MOMENT": law.MOMENT,
+        "LAW_CONTACT_POINT": law.CONTACT_POINT_VELOCITY,
     }
     return specialize(pair_forces, f"{geometry.name}__{law.NAME}", bindings, sources=(geometry_module, law, vec))

@@ -182,6 +182,7 @@ class StagedRun:
         note = ""
         if not mid_stage:
             self.tables, note = self.open_stage(stage, self.tables)
+            meta = self.meta  # open_stage may set the clock (pdem.scenes.blast: every plate from the prepared layer)
             state["next_gid"] = next_free_gid(self.tables, state["next_gid"])
             state.update(started=True, stage_t0=float(meta["time"]) if meta else 0.0)
         tables = self.tables

@@ -5,7 +5,9 @@ touches no engine file, it is a module with the law protocol (`pdem.contact`) an
 import numpy as np
 from numba import njit
 
-from pdem.contact.linear import ip2, stiffness, elastic_energy, contact_forces  # noqa: F401  (reused as they are)
+from pdem.contact.linear import (  # noqa: F401  (reused as they are)
+    CONTACT_POINT_VELOCITY, PAIR_KEYS, combine, contact_forces, dt_stiffness, elastic_energy, ip2, pwave_modulus,
+    stiffness)
 from pdem.vec import cross3
 
 NAME = "linear_uncapped"

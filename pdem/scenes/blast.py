@@ -1,0 +1,575 @@
+"""The blast layer (SPEC.md 2.5; Szklennik, Biuletyn WAT 65(3), 2016, section 3): a granular layer
+in a rigid box, a rigid cover plate on top hit by F(t) = F0 (1 − t/τ), the stress on the fixed
+ceiling below it, on any number of ranks.
+
+A scene file with a ``[blast]`` table (keys and defaults in `DEFAULTS`, units SI; the contact law
+is ``[simulation] law = "viscous"`` with materials ``grain``, ``plate``, ``wall`` by default, and
+``side_material`` for the four side walls: the jobs make them frictionless, the symmetry planes
+of a slice of a wide layer) runs:
+
+1. ``pour``     a seeded loose cloud of spheres (diameters ``diameter_min``..``diameter_max``)
+                falls into the box (ceiling = floor wall at z = 0, four side walls) and settles
+                (optional Cundall damping ``prep_damping``, preparation only; default 0: the
+                viscous law alone brings the layer to rest, while Cundall damping together with
+                the rolling springs kept a jammed column agitated in tests), not before the top of
+                the cloud could have fallen to the floor (sqrt(2 h/g)). With
+                ``prep_stiffness_factor`` < 1 the pour runs with the stiffnesses (k_n, k_s, k_θ;
+                E) times that factor (a longer Δt); the settle stage makes every contact again
+                at the full stiffness.
+2. ``settle``   the spheres whose top is above the layer height ``box[2]`` are removed; settle
+                again. The layer at the end of this stage is the *prepared layer*: it is also
+                written to ``prepared_layer/`` of the run directory.
+3. per plate k of ``plates`` (areal masses [kg/m²]), starting again from the prepared layer:
+   ``plate_k``  the cover plate (a rigid box spanning the box, z translation only, mass =
+                areal mass × box area) is placed on the highest grain and settles under its
+                weight (Cundall damping ``plate_damping`` on the plate only: without it a heavy
+                plate bounces on the stiff layer for long) until the grains'
+                unbalanced force ratio and the plate's (|F_grains + m g|/(m g)) are below
+                ``plate_settle_ratio`` and the plate is slower than ``plate_settle_velocity``;
+   ``blast_k``  no Cundall damping (only the law's viscous damping, as in the paper); the plate
+                carries F(t) = F0 (1 − t/τ) downwards for ``duration`` [s] after the stage starts.
+
+"Prepare once, load many": one run with ``plates = [10780, 2700, 244]`` prepares the layer once
+and loads it with each plate in turn; ``prepared_from`` (a run directory or its prepared-layer
+file) skips stages 1–2 and starts from another run's prepared layer (the box, diameters and
+materials must match). So a seeds × plates campaign is one run per seed, or one preparation run
+per seed and one run per (seed, plate) with ``prepared_from``.
+
+Output in the run directory: ``plate_<areal mass>/results.h5`` (kind "blast" of
+`analysis.schema`: series ``plate_position`` [m], ``plate_velocity`` [m/s], ``ceiling_stress`` σ0
+[Pa, compression positive], ``input_force`` [N], time 0 at the start of the impulse; the
+``/blast`` group), ``preparation.h5`` and ``preparation.png``, ``analysis/`` (the analysis of
+`analysis.blast`: σ0(t), plate motion, impulse I_s and amplification against the paper; with
+several plates a comparison) and ``summary.txt`` with the timing table. Each stage ends with a
+checkpoint; a run resumes from any of them on any rank count, bit for bit.
+"""
+import shutil
+from math import ceil, pi
+from pathlib import Path
+
+import numpy as np
+
+from analysis.schema import BLAST_RUN_SERIES, PREPARATION_SERIES, write_blast_parameters
+
+from ..config import check_keys, run_settings, scene_from_dict
+from ..contact import viscous
+from ..driver import observables
+from ..driver.plain import write_snapshot
+from ..driver.plots import plot_energy, save_figure, series_figure
+from ..driver.results import series_writer, write_root_attrs
+from ..driver.stages import (
+    StagedRun,
+    append_bodies,
+    check_no_steps,
+    empty_tables,
+    remove_above,
+)
+from ..errors import InputError, InstabilityError
+from ..generators import loose_cloud
+from ..io.checkpoint import (
+    CheckpointError,
+    list_checkpoints,
+    read_checkpoint,
+    write_checkpoint,
+)
+from ..loads import Impulse
+from ..validate import number
+
+# [blast] keys and defaults (SPEC.md 2.5; stiffness and damping are in [materials])
+DEFAULTS = {
+    "box": [0.3, 0.3, 0.3],            # inner x, y [m] and the layer height z [m]
+    "grain_material": "grain", "plate_material": "plate", "wall_material": "wall",
+    "side_material": "",               # the four side walls ("": wall_material)
+    "diameter_min": 0.009, "diameter_max": 0.010,   # [m], uniform
+    "seed": 1,
+    "packing_fraction": 0.6,           # solid fraction assumed to size the cloud [-]
+    "overfill": 1.1,                   # cloud volume / layer volume [-]
+    "prep_damping": 0.0,               # Cundall lambda_D of the preparation stages [-] (see the docstring)
+    "prep_stiffness_factor": 1.0,      # pour with the materials' stiffness times this [-]
+    "plate_damping": 0.7,              # Cundall lambda_D of the plate (only) while it settles [-]
+    "settle_ratio": 0.01, "settle_min_time": 0.05, "settle_max_time": 1.0, "check_every": 200,
+    "plate_settle_ratio": 0.01, "plate_settle_min_time": 0.02, "plate_settle_max_time": 0.2,
+    "plate_settle_velocity": 1e-3,     # and the plate slower than this [m/s]
+    "plates": [10780.0],               # areal masses of the cover plates [kg/m^2]
+    "plate_thickness": 0.02,           # [m], geometry only (the mass is areal mass x area)
+    "F0": 9.0e6, "tau": 1.0e-4,        # F(t) = F0 (1 - t/tau) [N], [s]
+    "duration": 9.0e-3,                # simulated after the impulse starts [s]
+    "record_every": 1,                 # steps between rows of the blast record
+    "prepared_from": "",               # run directory or prepared-layer file ("": prepare here)
+}
+PREP_STAGES = ("pour", "settle")
+PREPARED_DIR = "prepared_layer"
+# what must agree between a prepared layer and the run that loads it
+PREPARED_KEYS = ("box", "grain_material", "wall_material", "side_material", "diameter_min", "diameter_max", "seed",
+                 "packing_fraction", "overfill", "prep_stiffness_factor", "prep_damping", "settle_ratio")
+STIFFNESS_KEYS = ("kn", "ks", "rolling_stiffness", "young")  # scaled by prep_stiffness_factor
+
+
+# ---------------------------------------------------------------------------- settings
+def blast_settings(doc):
+    """The [blast] table with defaults, checked (one-line InputError naming the key)."""
+    given = doc["blast"]
+    check_keys("blast", given, set(DEFAULTS))
+    c = {**DEFAULTS, **given}
+    v = c["box"]
+    if not (isinstance(v, list) and len(v) == 3):
+        raise InputError(f"blast.box = {v!r}: must be [x, y, layer height] lengths > 0 [m]")
+    c["box"] = [number("blast.box", x, 0.0, lo_open=True, allow="[x, y, layer height] lengths > 0 [m]") for x in v]
+    materials = doc.get("materials", {})
+    if c["side_material"] == "":
+        c["side_material"] = c["wall_material"]
+    for k in ("grain_material", "plate_material", "wall_material", "side_material"):
+        if not isinstance(c[k], str) or c[k] not in materials:
+            raise InputError(f"blast.{k} = {c[k]!r}: no [materials.{c[k]}] table in the scene file")
+    for k in ("diameter_min", "diameter_max", "packing_fraction", "overfill", "settle_ratio", "settle_max_time",
+              "plate_settle_velocity",
+              "plate_settle_ratio", "plate_settle_max_time", "plate_thickness", "F0", "tau", "duration"):
+        c[k] = number(f"blast.{k}", c[k], 0.0, lo_open=True)
+    for k in ("settle_min_time", "plate_settle_min_time"):
+        c[k] = number(f"blast.{k}", c[k], 0.0)
+    c["prep_damping"] = number("blast.prep_damping", c["prep_damping"], 0.0, 0.99, allow="in [0, 0.99] (Cundall's lambda_D)")
+    c["plate_damping"] = number("blast.plate_damping", c["plate_damping"], 0.0, 0.99, allow="in [0, 0.99] (Cundall's lambda_D)")
+    c["prep_stiffness_factor"] = number("blast.prep_stiffness_factor", c["prep_stiffness_factor"], 0.0, 1.0,
+                                        lo_open=True, allow="in (0, 1]")
+    for k in ("seed", "check_every", "record_every"):
+        c[k] = number(f"blast.{k}", c[k], 0 if k == "seed" else 1, integer=True)
+    if c["diameter_max"] < c["diameter_min"]:
+        raise InputError(f"blast.diameter_max = {c['diameter_max']!r}: must be >= diameter_min = {c['diameter_min']!r} [m]")
+    plates = c["plates"]
+    if not (isinstance(plates, list) and plates):
+        raise InputError(f"blast.plates = {plates!r}: must be a list of plate areal masses > 0 [kg/m^2]")
+    c["plates"] = [number("blast.plates", m, 0.0, lo_open=True, allow="plate areal masses > 0 [kg/m^2]") for m in plates]
+    if len(set(c["plates"])) != len(c["plates"]):
+        raise InputError(f"blast.plates = {plates!r}: each areal mass at most once (one results directory each)")
+    if not isinstance(c["prepared_from"], str):
+        raise InputError(f"blast.prepared_from = {c['prepared_from']!r}: must be a path (a run directory or its "
+                         f"{PREPARED_DIR} checkpoint file) or \"\"")
+    if "steps" in doc.get("run", {}):
+        raise InputError("run.steps: not used by a blast run (its stages end on settle criteria and blast.duration); "
+                         "remove it")
+    return c
+
+
+def stages(c):
+    """The stage names of a run: the preparation (unless ``prepared_from``), then plate and
+    blast per plate."""
+    prep = () if c["prepared_from"] else PREP_STAGES
+    return prep + tuple(s for k in range(len(c["plates"])) for s in (f"plate_{k}", f"blast_{k}"))
+
+
+def plate_dir(mass):
+    """Results directory of the plate of areal mass ``mass`` [kg/m^2]."""
+    return f"plate_{mass:g}"
+
+
+# ---------------------------------------------------------------------------- geometry
+def radius_range(c):
+    return 0.5 * c["diameter_min"], 0.5 * c["diameter_max"]
+
+
+def cloud(c):
+    """(pos, radius) of the loose cloud poured in stage 1."""
+    lx, ly, h = c["box"]
+    r_lo, r_hi = radius_range(c)
+    r_mean, spread = 0.5 * (r_lo + r_hi), (r_hi - r_lo) / (r_lo + r_hi)
+    mean_r3 = r_mean ** 3 if spread == 0 else (r_hi ** 4 - r_lo ** 4) / (4 * (r_hi - r_lo))
+    n = max(ceil(c["overfill"] * c["packing_fraction"] * lx * ly * h / (4.0 / 3.0 * pi * mean_r3)), 1)
+    a = 2 * r_hi * 1.05
+    per_layer = np.floor(lx / a) * np.floor(ly / a)
+    if per_layer < 1:
+        raise InputError(f"blast.diameter_max = {c['diameter_max']!r}: the spheres do not fit in the box")
+    top = np.ceil(n / per_layer) * a + 1e-9
+    return loose_cloud([0.0, 0.0, 0.0], [lx, ly, top], n, r_mean, spread, c["seed"])
+
+
+def plate_geometry(c, bottom):
+    """(centre, half extents) of the cover plate with its bottom at ``bottom`` [m]."""
+    lx, ly, _ = c["box"]
+    t = c["plate_thickness"]
+    return np.array([lx / 2, ly / 2, bottom + t / 2]), np.array([lx / 2, ly / 2, t / 2])
+
+
+def stage_scene(doc, c, stage, tables, plate_mass=None, load=None, plate_center=None):
+    """The `Scene` of ``stage`` holding the spheres of ``tables``: the file's materials and
+    settings, the ceiling and four side walls, and (plate and blast stages) the cover plate."""
+    base = {k: v for k, v in doc.items() if k in ("simulation", "materials", "material_pairs")}
+    if stage == "pour" and c["prep_stiffness_factor"] != 1.0:
+        f = c["prep_stiffness_factor"]
+        base["materials"] = {name: {k: v * f if k in STIFFNESS_KEYS else v for k, v in m.items()}
+                             for name, m in base["materials"].items()}
+    blast = stage.startswith("blast")
+    base["simulation"] = {**base.get("simulation", {}), "allow_initial_overlap": True,
+                          "damping": 0.0 if blast else c["prep_damping"]}
+    scene = scene_from_dict(base)
+    lx, ly, _ = c["box"]
+    w = c["side_material"]
+    scene.add_wall("z", 0.0, c["wall_material"], sense=1, name="ceiling")
+    scene.add_wall("x", 0.0, w, sense=1, name="x_min")
+    scene.add_wall("x", lx, w, sense=-1, name="x_max")
+    scene.add_wall("y", 0.0, w, sense=1, name="y_min")
+    scene.add_wall("y", ly, w, sense=-1, name="y_max")
+    if plate_mass is not None:
+        _, half = plate_geometry(c, 0.0)
+        scene.add_box(plate_center, half, c["plate_material"], plate_mass * lx * ly, blocked="xyXYZ", load=load,
+                      damping=0.0 if blast else c["plate_damping"], name="plate")
+    scene.add_sphere_columns(tables["particles"])
+    return scene
+
+
+# ---------------------------------------------------------------------------- the prepared layer
+def prepared_file(path):
+    """The prepared-layer checkpoint of a run directory, or ``path`` itself if it is a file."""
+    path = Path(path)
+    if path.is_file():
+        return path
+    found = list_checkpoints(path / PREPARED_DIR)
+    if not found:
+        raise InputError(f"blast.prepared_from = {str(path)!r}: no prepared layer there (neither a file nor a run "
+                         f"directory with {PREPARED_DIR}/)")
+    return found[-1][1]
+
+
+def read_prepared(path, c, materials):
+    """(tables, meta) of a prepared layer; InputError if it was made for another layer."""
+    f = prepared_file(path)
+    try:
+        tables, meta = read_checkpoint(f)
+    except CheckpointError as exc:
+        raise InputError(f"blast.prepared_from: {exc}") from None
+    made = meta.get("blast_prepared")
+    if made is None:
+        raise InputError(f"blast.prepared_from: {f} is not a prepared blast layer")
+    for k in PREPARED_KEYS:
+        if made["settings"].get(k) != c[k]:
+            raise InputError(f"blast.{k} = {c[k]!r}: the prepared layer {f} was made with {made['settings'].get(k)!r}")
+    if made["materials"] != materials:
+        raise InputError(f"materials: differ from those the prepared layer {f} was made with")
+    return tables, meta
+
+
+# ---------------------------------------------------------------------------- records
+def prep_sample(sim, stage_index):
+    e = sim.energy()
+    return {"step": sim.step, "time": sim.time, "stage": stage_index,
+            "n_spheres": sim.comm.allreduce_sum_int(sim.particles.n_local), "kinetic_energy": e["kinetic"] + e["rotational"],
+            "unbalanced_force": observables.unbalanced_force(sim), "contacts_per_particle": sim.contacts_per_particle(),
+            "bed_top": observables.bed_top(sim),
+            "sleeper_z": float(sim.boxes.center[0, 2]) if sim.boxes is not None else float("nan")}
+
+
+def blast_sample(sim, t0, load, area):
+    """A row of the blast record after a step: time from the start of the impulse ``t0`` at the
+    start of the step, when the contact forces (σ0) were computed and the load (F(t)) was taken;
+    the plate's position and velocity at the end of the step (one Δt later)."""
+    e = sim.energy()
+    ceiling = observables.wall_forces(sim)[0]
+    bx = sim.boxes
+    t = sim.time - sim.dt
+    return {"step": sim.step, "time": t - t0, "dt": sim.dt, "plate_position": float(bx.center[0, 2]),
+            "plate_velocity": float(bx.velocity[0, 2]), "ceiling_stress": float(-ceiling[2] / area),
+            "input_force": float(load.value(t)), "kinetic_energy": e["kinetic"] + e["rotational"]}
+
+
+def plate_balance(sim):
+    """|F_grains,z + m g_z| / (m |g_z|) of the plate [-]: 0 when the layer carries its weight."""
+    bx = sim.boxes
+    weight = bx.mass[0] * sim.gravity[2]
+    return abs(float(bx.contact_force[0, 2]) + weight) / abs(weight)
+
+
+def check_plate_step(sim, limit):
+    """Stop (`InstabilityError`) if the plate moved more than ``limit`` [m] in the last step: it
+    would pass through grains before their overlap is checked."""
+    v = float(sim.boxes.velocity[0, 2])
+    if abs(v) * sim.dt > limit:
+        raise InstabilityError(
+            f"step {sim.step}: the cover plate moved {abs(v) * sim.dt:.3e} m in one step (velocity {v:.4g} m/s, dt = "
+            f"{sim.dt:.3e} s), more than a quarter of the smallest grain radius: the load is too high for the layer's "
+            "contact stiffness (or the plate too light); the grains cannot stop it")
+
+
+# ---------------------------------------------------------------------------- the run
+def check(doc):
+    """Check a parsed blast scene file without running it (one-line InputError)."""
+    c = blast_settings(doc)
+    run_settings(doc)
+    if doc.get("simulation", {}).get("law") is None:
+        raise InputError("simulation.law: required for a blast run (the paper's law is \"viscous\")")
+    center, _ = plate_geometry(c, c["box"][2])
+    stage_scene(doc, c, "blast_0", empty_tables(), c["plates"][0], Impulse(c["F0"], c["tau"], label="blast"), center)
+    if c["prepared_from"]:
+        read_prepared(c["prepared_from"], c, doc["materials"])
+
+
+def run(path, doc, out_dir, comm, steps=None, fresh=False):
+    """Run (or resume) the blast layer of a parsed scene file; returns the exit status."""
+    check_no_steps(steps)
+    check(doc)
+    return BlastRun(path, doc, out_dir, comm, fresh).run()
+
+
+class BlastRun(StagedRun):
+    """One blast run (`pdem.driver.stages.StagedRun`): the preparation, then plate and blast
+    stages per plate, each plate from the prepared layer. ``state`` adds the prepared-layer
+    file and the start of the current impulse."""
+
+    NAME = "blast"
+
+    def __init__(self, path, doc, out_dir, comm, fresh):
+        self.c = blast_settings(doc)
+        self.STAGES = stages(self.c)
+        self.writer = None
+        super().__init__(path, doc, out_dir, comm, fresh)
+
+    def initial_state(self):
+        return {"prepared": self.c["prepared_from"] and str(prepared_file(self.c["prepared_from"])), "blast_t0": None,
+                "plates": []}
+
+    def open_outputs(self):
+        self.prep = series_writer(self.out / "preparation.h5", PREPARATION_SERIES, self.comm,
+                                  restart_step=self.restart_step)
+        self.loop.flush.append(self.prep)
+
+    def close_outputs(self):
+        self.prep.close()
+        if self.writer is not None:
+            self.writer.close()
+
+    def plate_of(self, stage):
+        return self.c["plates"][int(stage.split("_")[1])]
+
+    def open_stage(self, stage, tables):
+        c, state = self.c, self.state
+        if stage == "pour":
+            pos, radius = cloud(c)
+            g = float(np.linalg.norm(self.doc.get("simulation", {}).get("gravity", [0.0, 0.0, 0.0])))
+            top = float(np.max(pos[:, 2] + radius))
+            state["pour_min_time"] = float(np.sqrt(2.0 * top / g)) if g > 0 else 0.0
+            grain = c["grain_material"]
+            tables = append_bodies(empty_tables(), pos, radius, self.doc["materials"][grain]["density"],
+                                   list(self.doc["materials"]).index(grain), 0)
+            return tables, f"poured {len(radius)} spheres"
+        if stage == "settle":
+            tables, removed = remove_above(tables, c["box"][2])
+            if c["prep_stiffness_factor"] != 1.0:  # the soft pour's contacts are made again at full stiffness
+                tables = {k: v for k, v in tables.items() if not k.startswith("contacts/")}
+            return tables, f"removed {removed} spheres above {c['box'][2]} m"
+        if stage.startswith("plate"):
+            tables, meta = read_prepared(state["prepared"], c, self.doc["materials"])
+            tables = {k: v for k, v in tables.items() if k != "boxes"}
+            self.restart_clock(meta)
+            p = tables["particles"]
+            top = float(np.max(p["pos"][:, 2] + p["radius"]))
+            state["plate_center"] = plate_geometry(c, top)[0].tolist()
+            return tables, (f"from the prepared layer {state['prepared']}: placed the plate of {self.plate_of(stage):g} "
+                            f"kg/m^2 on the highest grain (z = {top:.4f} m)")
+        if stage.startswith("blast"):
+            state["blast_t0"] = float(self.meta["time"]) if self.meta else 0.0
+        return tables, ""
+
+    def restart_clock(self, prepared):
+        """Every plate starts from the prepared layer's time and from a step congruent to its
+        step modulo every schedule that acts on the state (Δt updates, stage checks, records), so
+        a plate's record is the same bits whichever plates ran before it and whether the layer
+        was prepared in this run or another (``prepared_from``); steps still only grow (the
+        checkpoint names)."""
+        sim_doc = self.doc.get("simulation", {})
+        run = self.run_cfg
+        period = 1
+        for k in (sim_doc.get("dt_interval", 100), sim_doc.get("check_interval", 100), self.c["check_every"],
+                  self.c["record_every"], run["output_every"], run["snapshot_every"], run["checkpoint_every"]):
+            period = int(np.lcm(period, int(k) if k else 1))
+        now = int(self.meta["step"]) if self.meta else 0
+        step = int(prepared["step"])
+        step += -(-(now - step) // period) * period if now > step else 0
+        if self.meta is None:
+            self.meta = {"n_rebuilds": 0}
+        self.meta.update(step=step, time=float(prepared["time"]))
+
+    def stage_scene(self, stage, tables):
+        c, state = self.c, self.state
+        if stage in PREP_STAGES:
+            return stage_scene(self.doc, c, stage, tables)
+        load = Impulse(c["F0"], c["tau"], start=state["blast_t0"], label="blast") if stage.startswith("blast") else None
+        center = tables["boxes"]["center"][0] if "boxes" in tables else np.asarray(state["plate_center"])
+        return stage_scene(self.doc, c, stage, tables, self.plate_of(stage), load, center)
+
+    def program(self, stage, sim, scene):
+        c, state, run = self.c, self.state, self.run_cfg
+        t0 = state["stage_t0"]
+        k = self.STAGES.index(stage)
+        if stage.startswith("blast"):
+            return self.blast_program(stage, sim, scene)
+        if sim.time == t0:
+            self.prep.append(prep_sample(sim, k))
+            if self.snaps is not None:
+                write_snapshot(self.snaps, sim)
+
+        def on_step(sim):
+            if run["output_every"] and sim.step % run["output_every"] == 0:
+                self.prep.append(prep_sample(sim, k))
+            self.snapshot(sim)
+
+        plate = stage.startswith("plate")
+        ratio = c["plate_settle_ratio" if plate else "settle_ratio"]
+        t_min = c["plate_settle_min_time" if plate else "settle_min_time"]
+        if stage == "pour":  # not before the top of the cloud could have fallen to the floor
+            t_min = max(t_min, state.get("pour_min_time", 0.0))
+        t_end = t0 + c["plate_settle_max_time" if plate else "settle_max_time"]
+
+        def settled(sim):
+            if sim.time >= t_end:
+                return True
+            if sim.time - t0 < t_min or observables.unbalanced_force(sim) >= ratio:
+                return False
+            return not plate or (plate_balance(sim) < ratio and abs(sim.boxes.velocity[0, 2]) < c["plate_settle_velocity"])
+
+        return on_step, settled, c["check_every"], t_end
+
+    def blast_program(self, stage, sim, scene):
+        c, state = self.c, self.state
+        mass = self.plate_of(stage)
+        t0 = state["blast_t0"]
+        load = scene.boxes.loads[0]
+        area = c["box"][0] * c["box"][1]
+        results = self.out / plate_dir(mass) / "results.h5"
+        fresh = sim.time == t0
+        if self.comm.rank == 0 and fresh:
+            results.parent.mkdir(parents=True, exist_ok=True)
+            results.unlink(missing_ok=True)
+        self.comm.barrier()
+        self.writer = series_writer(results, BLAST_RUN_SERIES, self.comm, restart_step=None if fresh else sim.step)
+        self.loop.flush.append(self.writer)
+        if self.comm.rank == 0:
+            write_root_attrs(results, {k: self.doc[k] for k in ("simulation", "materials", "blast") if k in self.doc},
+                             "blast")
+            write_blast_parameters(results, plate_areal_mass=mass, ceiling_area=area, F0=c["F0"], tau=c["tau"])
+        if fresh:
+            self.log_time_step(sim, mass)
+        every = c["record_every"]
+        t_end = t0 + c["duration"]
+        limit = 0.25 * radius_range(c)[0]
+        step0 = sim.step if fresh else None
+
+        def on_step(sim):
+            check_plate_step(sim, limit)
+            if sim.step % every == 0 or sim.step - 1 == step0:  # the first row: the static state at t = 0
+                self.writer.append(blast_sample(sim, t0, load, area))
+            self.snapshot(sim)
+
+        return on_step, lambda sim: sim.time - sim.dt >= t_end * (1 - 1e-12), 1, t_end
+
+    def log_time_step(self, sim, mass):
+        """Δt of pdem against the paper's eq. 10 estimate (smallest mass, largest stiffness)."""
+        if sim.law is not viscous:
+            return
+        p = sim.particles
+        m_min = sim.comm.allreduce_min(float(p.mass[: p.n_local].min()) if p.n_local else np.inf)
+        kn = np.concatenate([k.contacts.params[k.contacts.real_rows(), 0] for k in sim.kinds])
+        eta = float(np.max(sim.materials.column("damping_ratio")))
+        k_max = sim.comm.allreduce_max(float(kn.max()) if len(kn) else 0.0)
+        if k_max > 0:
+            self.loop.log(f"plate {mass:g} kg/m^2: dt = {sim.dt:.3e} s (automatic); the paper's eq. 10 with the smallest "
+                          f"mass {m_min:.3e} kg, the largest k_n {k_max:.3e} N/m, eta = {eta:g}: "
+                          f"{viscous.critical_step(k_max, m_min, eta):.3e} s")
+
+    def snapshot(self, sim, stage_end=False):
+        every = self.run_cfg["snapshot_every"]
+        if self.snaps is not None and (sim.step % every == 0) != stage_end:
+            write_snapshot(self.snaps, sim)
+
+    def close_stage(self, stage, sim):
+        c, log = self.c, self.loop.log
+        ratio = observables.unbalanced_force(sim)
+        if stage in PREP_STAGES or stage.startswith("plate"):
+            want = c["plate_settle_ratio" if stage.startswith("plate") else "settle_ratio"]
+            if ratio >= want or (stage.startswith("plate") and plate_balance(sim) >= want):
+                log(f"warning: stage {stage} reached its maximum time with unbalanced force ratio {ratio:.3g} >= {want}; "
+                    "going on")
+            self.prep.append(prep_sample(sim, self.STAGES.index(stage)))
+        top = observables.bed_top(sim)
+        plate = "" if sim.boxes is None else f", plate bottom {sim.boxes.center[0, 2] - sim.boxes.half[0, 2]:.5f} m"
+        log(f"stage {stage} done at t = {sim.time:.5f} s, step {sim.step}: unbalanced force ratio {ratio:.3g}, layer top "
+            f"{top:.4f} m{plate}")
+        self.snapshot(sim, stage_end=True)
+        if stage == "settle":
+            self.write_prepared(sim)
+        if stage.startswith("blast"):
+            self.writer.close()
+            self.loop.flush.remove(self.writer)
+            self.writer = None
+            self.state["plates"].append(self.plate_of(stage))
+
+    def write_prepared(self, sim):
+        """The prepared layer: a checkpoint of the end of stage settle in prepared_layer/, with
+        what it was made from (for ``prepared_from``)."""
+        tables, meta = sim.checkpoint_tables()
+        meta["blast_prepared"] = {"settings": {k: self.c[k] for k in PREPARED_KEYS},
+                                  "materials": self.doc["materials"], "scene_file": self.scene_text}
+        folder = self.out / PREPARED_DIR
+        if self.comm.rank == 0 and folder.exists():
+            shutil.rmtree(folder)
+        self.comm.barrier()
+        written = write_checkpoint(folder, sim.step, tables, meta, self.comm, keep=None)
+        self.state["prepared"] = str(written)
+        self.loop.log(f"prepared layer: {written}")
+
+    def stage_record(self, stage, sim):
+        return {"plate_z": None if sim.boxes is None else float(sim.boxes.center[0, 2])}
+
+    def finish(self, sim, wall_s):
+        finish(self.out, self.state, self.c, self.path, self.comm.size, wall_s, sim.timing_table())
+
+
+def plot_preparation(h5_path, png_path):
+    """Layer top, plate centre, kinetic energy and unbalanced force over the preparation."""
+    s, fig, ax = series_figure(h5_path, 3, 1, (8, 8))
+    t = s["time"]
+    ax[0].plot(t, s["bed_top"], ".", ms=2, label="top of the layer")
+    ax[0].plot(t, s["sleeper_z"], ".", ms=2, label="plate centre")
+    ax[0].set_ylabel("height [m]")
+    ax[0].legend()
+    plot_energy(ax[1], t, s["kinetic_energy"])
+    ax[2].semilogy(t, np.maximum(s["unbalanced_force"], 1e-6), ".", ms=2)
+    ax[2].set_ylabel("unbalanced force ratio [-]")
+    ax[2].set_xlabel("time [s]")
+    save_figure(fig, png_path)
+
+
+def finish(out, state, c, path, ranks, wall_s, timing):
+    """Rank 0 at the end: the preparation plot, the blast analysis (`analysis.blast`) of every
+    plate and summary.txt."""
+    import json
+
+    from analysis.__main__ import main as analysis_main
+
+    if (out / "preparation.h5").exists():
+        try:
+            plot_preparation(out / "preparation.h5", out / "preparation.png")
+        except (KeyError, ValueError) as exc:  # a run that only loads a prepared layer has few rows
+            print(f"no preparation plot: {exc}", flush=True)
+    dirs = [out / plate_dir(m) for m in c["plates"]]
+    argv = ["blast", *map(str, dirs), "--out", str(out / "analysis")]
+    status = analysis_main(argv)
+    lines = [f"blast layer: {path}", f"ranks: {ranks}", f"wall time: {wall_s:.1f} s", f"prepared layer: {state['prepared']}",
+             "", "stage        t_end [s]    steps  spheres  unbalanced  layer top [m]  plate z [m]  wall [s]"]
+    for r in state["stages"]:
+        z = f"{r['plate_z']:.5f}" if r["plate_z"] is not None else "-"
+        lines.append(f"{r['stage']:<10} {r['t_end']:11.5f} {r['step_end']:8d} {r['spheres']:8d} {r['unbalanced_force']:11.3g} "
+                     f"{r['bed_top']:14.5f} {z:>12} {r['wall_s']:9.1f}")
+    lines += ["", f"impulse F0 = {c['F0']:g} N over tau = {c['tau']:g} s, {c['duration'] * 1e3:g} ms recorded",
+              "plate [kg/m^2]   I_s [MPa s]   I_s/I_in   I_s,dyn/I_in   peak sigma_0 [MPa]   paper I_s   paper I_s/I_in"]
+    for m, d in zip(c["plates"], dirs):
+        f = out / "analysis" / ("blast.json" if len(dirs) == 1 else f"{d.name}/blast.json")
+        if not f.exists():
+            continue
+        r = json.loads(f.read_text())
+        paper = r["paper"] or {}
+        lines.append(f"{m:14g}   {r['impulse'] * 1e-6:11.4e}   {r['amplification']:8.3f}   {r['amplification_dynamic']:12.3f}"
+                     f"   {r['peak_stress'] * 1e-6:18.3f}   {paper.get('impulse', float('nan')) * 1e-6:9.3e}   "
+                     f"{paper.get('amplification', float('nan')):14.2f}")
+    lines += ["", timing]
+    (out / "summary.txt").write_text("\n".join(lines) + "\n")
+    print("\n".join(lines), flush=True)
+    print(f"wrote {', '.join(str(d / 'results.h5') for d in dirs)}, {out / 'summary.txt'} and {out / 'analysis'}/ "
+          f"(analysis exit status {status})", flush=True)
