@@ -196,10 +196,12 @@ def table(records):
     lines = [head, "-" * len(head)]
     for r in records:
         w = r["wall_s"]
-        lines.append(f"{r['case']:<20} {r['ranks']:>5} {r['threads']:>3} {r['steps']:>6} {w:>8.2f} "
-                     f"{r['particle_steps_per_s'] / 1e6:>11.2f} {r['contacts_per_particle']:>5.2f} "
-                     f"{r['bytes_per_particle']:>6.0f} {100 * r['neighbours_s'] / w:>6.1f} {100 * r['contacts_s'] / w:>6.1f} "
-                     f"{100 * r['integration_s'] / w:>6.1f} {100 * r['comm_s'] / w:>6.1f}")
+        lines.append(
+            f"{r['case']:<20} {r['ranks']:>5} {r['threads']:>3} {r['steps']:>6} {w:>8.2f} "
+            f"{r['particle_steps_per_s'] / 1e6:>11.2f} {r['contacts_per_particle']:>5.2f} "
+            f"{r['bytes_per_particle']:>6.0f} {100 * r['neighbours_s'] / w:>6.1f} {100 * r['contacts_s'] / w:>6.1f} "
+            f"{100 * r['integration_s'] / w:>6.1f} {100 * r['comm_s'] / w:>6.1f}"
+        )
     return "\n".join(lines)
 
 

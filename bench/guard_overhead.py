@@ -127,8 +127,12 @@ def main():
             rec = one(getattr(args, name), args.n, args.steps)
             times[name].append(rec["s_per_step"])
             forces[name].append(rec["forces_s"])
-            print(f"round {k} {name:6s} {1e3 * rec['s_per_step']:8.3f} ms/step  force loops {1e3 * rec['forces_s']:8.3f} ms"
-                  f"  ({rec['pdem']})", flush=True)
+            print(
+                f"round {k} {name:6s} {1e3 * rec['s_per_step']:8.3f} ms/step  force loops "
+                f"{1e3 * rec['forces_s']:8.3f} ms"
+                f"  ({rec['pdem']})",
+                flush=True,
+            )
     for what, d in (("step", times), ("force loops", forces)):
         b, a = statistics.median(d["before"]), statistics.median(d["after"])
         print(f"{what}: median before {1e3 * b:.3f} ms, after {1e3 * a:.3f} ms: {100 * (a / b - 1):+.2f} %")

@@ -108,12 +108,18 @@ def model(argv=None):
     print(f"  2 ranks: {t2 * 1e3:.2f} ms/step, speedup {r1['wall_s'] / s1 / t2:.2f}, compute {compute2 * 1e3:.2f} ms, "
           f"comm {comm2 * 1e3:.3f} ms, ghosts/rank {g_rank:.0f}, halo fraction {r2['halo_fraction']:.4f}")
     print(f"  c_g    = {c_g * 1e9:8.1f} ns per ghost-step (modelled c/2; 2-rank fit {c_g_fit * 1e9:.0f} ns)")
-    print(f"  u      = {u * 1e9:8.1f} ns per ghost-step (pack/unpack, rebuild every {k:.0f} steps), o = {o * 1e6:.1f} us/step")
+    print(
+        f"  u      = {u * 1e9:8.1f} ns per ghost-step (pack/unpack, rebuild every {k:.0f} steps), o = "
+        f"{o * 1e6:.1f} us/step"
+    )
     print(f"  alpha  = {alpha * 1e6:8.2f} us, beta = {beta / 1e9:.2f} GB/s (sendrecv ping-pong, shared memory)")
     print(f"  comm explained by the model: {comm_model2 * 1e6:.1f} us/step of {comm2 * 1e6:.1f} us/step measured "
           f"(the rest: waiting for the other rank)")
     t2_model = c * n / 2 + c_g * g_rank + comm_model2
-    print(f"  model at 2 ranks: {t2_model * 1e3:.2f} ms/step, speedup {c * n / t2_model:.2f} (measured {r1['wall_s'] / s1 / t2:.2f})")
+    print(
+        f"  model at 2 ranks: {t2_model * 1e3:.2f} ms/step, speedup {c * n / t2_model:.2f} (measured "
+        f"{r1['wall_s'] / s1 / t2:.2f})"
+    )
     L, W, D = args.length, args.width, args.depth
     N = L * W * D / BED_VOLUME_PER_SPHERE
     nx = N / L

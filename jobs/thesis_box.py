@@ -178,9 +178,11 @@ def report(out, runs, dest):
             ax.bar(xs, vals, width=0.35, label=f"pdem {g}")
             if len(vals) >= 2:
                 v = variability(vals)
-                md.append(f"pdem {g}: {v.n} of {len(groups[g])} seeds finished; range {v.minimum:.1f}–{v.maximum:.1f} mm, "
-                          f"mean {v.mean:.1f} mm, standard deviation {v.std:.2f} mm, CoV {v.cov:.3f}, 95 % CI of the "
-                          f"mean {v.ci_low:.1f}–{v.ci_high:.1f} mm")
+                md.append(
+                    f"pdem {g}: {v.n} of {len(groups[g])} seeds finished; range {v.minimum:.1f}–{v.maximum:.1f} mm, "
+                    f"mean {v.mean:.1f} mm, standard deviation {v.std:.2f} mm, CoV {v.cov:.3f}, 95 % CI of the "
+                    f"mean {v.ci_low:.1f}–{v.ci_high:.1f} mm"
+                )
                 md.append("")
         md += [f"thesis: range {THESIS_B[0]}–{THESIS_B[1]} mm, mean {THESIS_B[2]} mm", "", "Runs that stopped:", ""]
         md += stops + [""]

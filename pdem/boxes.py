@@ -92,7 +92,9 @@ class Boxes:
         lam = number(f"{label}.damping", damping, 0.0, 0.99, allow="in [0, 0.99] (Cundall's lambda_D)")
         mask = blocked_mask(label, blocked, fixed)
         if load is not None and not isinstance(load, (Constant, Haversine, Impulse)):
-            raise InputError(f"{label}.load = {load!r}: must be None or a pdem.loads program (Haversine, Constant, Impulse)")
+            raise InputError(
+                f"{label}.load = {load!r}: must be None or a pdem.loads program (Haversine, Constant, Impulse)"
+            )
         d = vector3(f"{label}.direction", direction)
         norm = float(np.sqrt(d @ d))
         if not norm > 0.0:
@@ -148,9 +150,29 @@ class Boxes:
 
     def spec(self):
         """JSON-able description (initial state as declared)."""
-        return [dict(name=n, center=c.tolist(), half_extents=h.tolist(), velocity=v.tolist(), mass=float(m),
-                     material=int(mt), blocked=int(bl), damping=float(lam), direction=d.tolist(),
-                     load=None if ld is None else ld.spec())
-                for n, c, h, v, m, mt, bl, lam, d, ld in zip(self.names, self.center, self.half, self.velocity, self.mass,
-                                                             self.material, self.blocked, self.damping, self.direction,
-                                                             self.loads)]
+        return [
+            dict(
+                name=n,
+                center=c.tolist(),
+                half_extents=h.tolist(),
+                velocity=v.tolist(),
+                mass=float(m),
+                material=int(mt),
+                blocked=int(bl),
+                damping=float(lam),
+                direction=d.tolist(),
+                load=None if ld is None else ld.spec(),
+            )
+            for n, c, h, v, m, mt, bl, lam, d, ld in zip(
+                self.names,
+                self.center,
+                self.half,
+                self.velocity,
+                self.mass,
+                self.material,
+                self.blocked,
+                self.damping,
+                self.direction,
+                self.loads,
+            )
+        ]

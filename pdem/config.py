@@ -29,8 +29,22 @@ from .generators import loose_cloud
 from .scene import Scene
 from .validate import number
 
-SIMULATION_KEYS = {"law", "dt", "damping", "gravity", "skin", "dt_safety", "dt_interval", "pwave_factor",
-                   "check_interval", "max_overlap_ratio", "energy_check", "allow_initial_overlap", "slab_axis", "domain"}
+SIMULATION_KEYS = {
+    "law",
+    "dt",
+    "damping",
+    "gravity",
+    "skin",
+    "dt_safety",
+    "dt_interval",
+    "pwave_factor",
+    "check_interval",
+    "max_overlap_ratio",
+    "energy_check",
+    "allow_initial_overlap",
+    "slab_axis",
+    "domain",
+}
 RUN_DEFAULTS = {"steps": 1000, "progress_every": 1000, "output_every": 100, "snapshot_every": 0, "checkpoint_every": 0,
                 "checkpoint_every_s": 0.0, "checkpoint_keep": 3, "kind": "scene"}
 WALL_KEYS = {"axis", "position", "material", "sense", "velocity"}

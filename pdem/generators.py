@@ -35,8 +35,10 @@ def loose_cloud(lo, hi, n, r_mean, spread=0.0, seed=0, gap=0.05):
     a = 2.0 * r_max * (1.0 + gap)
     counts = np.floor((hi - lo) / a).astype(int)
     if np.any(counts < 1) or np.prod(counts) < n:
-        raise InputError(f"deposition: {n} spheres of radius up to {r_max:.4g} m do not fit in the box {lo.tolist()}..{hi.tolist()} "
-                         f"(room for {max(int(np.prod(np.maximum(counts, 0))), 0)}); enlarge the box height or use fewer spheres")
+        raise InputError(
+            f"deposition: {n} spheres of radius up to {r_max:.4g} m do not fit in the box {lo.tolist()}..{hi.tolist()} "
+            f"(room for {max(int(np.prod(np.maximum(counts, 0))), 0)}); enlarge the box height or use fewer spheres"
+        )
     rng = np.random.default_rng(seed + 1)
     ix, iy, iz = np.meshgrid(*(np.arange(c) for c in counts), indexing="ij")
     sites = np.stack([ix.ravel(), iy.ravel(), iz.ravel()], axis=1)

@@ -171,8 +171,10 @@ def check_initial_overlaps(sim):
         if row >= 0 and pen > 1e-9 * p.radius[c.i[row]]:  # not rounding of a sphere placed touching
             s, b = int(c.i[row]), int(c.j[row])
             worst = pen / p.radius[s]
-            what = (f"body gid {int(p.gid[s])} overlaps {kind.name.split('_', 1)[1]} {_name(kind.boundary.names[b])} by "
-                    f"{pen:.3e} m ({100 * worst:.0f} % of its radius) at the start")
+            what = (
+                f"body gid {int(p.gid[s])} overlaps {kind.name.split('_', 1)[1]} {_name(kind.boundary.names[b])} by "
+                f"{pen:.3e} m ({100 * worst:.0f} % of its radius) at the start"
+            )
     if sim.comm.any_flag(bool(what)):
         what = agree(sim.comm, worst if what else -1.0, what)
         raise InputError(f"spheres: {what}; move it or set allow_initial_overlap = true")

@@ -278,7 +278,9 @@ def build_facet_candidates(pos, radius, n_local, skin, facet_geom, facet_vertice
     near = np.zeros((n_local, facet_geom.shape[0]), np.bool_)
     for s in range(n_local):
         for f in range(facet_geom.shape[0]):
-            near[s, f] = _near_facet(pos[s, 0], pos[s, 1], pos[s, 2], radius[s] + skin, facet_geom[f], facet_vertices[f])
+            near[s, f] = _near_facet(
+                pos[s, 0], pos[s, 1], pos[s, 2], radius[s] + skin, facet_geom[f], facet_vertices[f]
+            )
     return candidates_from_mask(near)
 
 

@@ -40,10 +40,15 @@ def sphere_columns(pos, radius, density, first_gid):
     # differ from Python's r**3 in the last bit
     volume = np.array([(4.0 / 3) * pi * float(x) ** 3 for x in radius])
     n = len(radius)
-    return {"gid": np.arange(first_gid, first_gid + n, dtype=np.int64), "pos": np.asarray(pos, np.float64),
-            "vel": np.zeros((n, 3)), "angvel": np.zeros((n, 3)), "radius": np.asarray(radius, np.float64),
-            "mass": np.array([v * float(d) for v, d in zip(volume, density)]),
-            "inertia": np.array([((2.0 / 5.0) * v * float(x) ** 2) * float(d) for v, x, d in zip(volume, radius, density)])}
+    return {
+        "gid": np.arange(first_gid, first_gid + n, dtype=np.int64),
+        "pos": np.asarray(pos, np.float64),
+        "vel": np.zeros((n, 3)),
+        "angvel": np.zeros((n, 3)),
+        "radius": np.asarray(radius, np.float64),
+        "mass": np.array([v * float(d) for v, d in zip(volume, density)]),
+        "inertia": np.array([((2.0 / 5.0) * v * float(x) ** 2) * float(d) for v, x, d in zip(volume, radius, density)]),
+    }
 
 
 class Scene:
@@ -63,8 +68,12 @@ class Scene:
             "dt_safety": number("dt_safety", dt_safety, 0.0, 1.0, lo_open=True, allow="in (0, 1]"),
             "dt_interval": number("dt_interval", dt_interval, 1, integer=True, allow="an integer >= 1 [steps]"),
             "pwave_factor": number("pwave_factor", pwave_factor, 0.0, 1.0, lo_open=True, allow="in (0, 1]"),
-            "check_interval": number("check_interval", check_interval, 1, integer=True, allow="an integer >= 1 [steps]"),
-            "max_overlap_ratio": number("max_overlap_ratio", max_overlap_ratio, 0.0, 1.0, lo_open=True, allow="in (0, 1]"),
+            "check_interval": number(
+                "check_interval", check_interval, 1, integer=True, allow="an integer >= 1 [steps]"
+            ),
+            "max_overlap_ratio": number(
+                "max_overlap_ratio", max_overlap_ratio, 0.0, 1.0, lo_open=True, allow="in (0, 1]"
+            ),
             "energy_check": boolean("energy_check", energy_check),
             "allow_initial_overlap": boolean("allow_initial_overlap", allow_initial_overlap),
             "slab_axis": slab_axis,
@@ -73,7 +82,9 @@ class Scene:
         if domain is not None:  # only when declared: the spec (and checkpoints) of other scenes stay as they were
             box = vectors("domain", domain, 2)
             if not np.all(box[1] > box[0]):
-                raise InputError(f"domain = {box.tolist()}: must be [[x, y, z] low, [x, y, z] high] with low < high [m]")
+                raise InputError(
+                    f"domain = {box.tolist()}: must be [[x, y, z] low, [x, y, z] high] with low < high [m]"
+                )
             self.settings["domain"] = box.tolist()
         if slab_axis not in (0, 1, 2) or isinstance(slab_axis, bool):
             raise InputError(f"slab_axis = {slab_axis!r}: must be 0, 1 or 2 (x, y, z)")
@@ -98,12 +109,16 @@ class Scene:
         and ``friction``) for the pair of materials a, b (names or indices)."""
         ia = self._material_index("material_pairs.materials[0]", a)
         ib = self._material_index("material_pairs.materials[1]", b)
-        self.materials.set_pair(ia, ib, values, label=f"material_pairs.{self.material_names[ia]}-{self.material_names[ib]}")
+        self.materials.set_pair(
+            ia, ib, values, label=f"material_pairs.{self.material_names[ia]}-{self.material_names[ib]}"
+        )
 
     def _material_index(self, label, m):
         if isinstance(m, str):
             if m not in self.material_names:
-                raise InputError(f"{label} = {m!r}: unknown material; defined: {', '.join(self.material_names) or 'none'}")
+                raise InputError(
+                    f"{label} = {m!r}: unknown material; defined: {', '.join(self.material_names) or 'none'}"
+                )
             return self.material_names.index(m)
         if not (isinstance(m, (int, np.integer)) and 0 <= m < len(self.materials)):
             raise InputError(f"{label} = {m!r}: not a material index (0..{len(self.materials) - 1})")
@@ -242,8 +257,10 @@ class Scene:
             over = r[pi_] + r[pj] - d
             k = int(np.argmax(over))
             if over[k] > 0:
-                raise InputError(f"spheres: bodies gid {gid[pi_[k]]} and {gid[pj[k]]} overlap by {over[k]:.3e} m at the start; "
-                                 "move them apart or set allow_initial_overlap = true")
+                raise InputError(
+                    f"spheres: bodies gid {gid[pi_[k]]} and {gid[pj[k]]} overlap by {over[k]:.3e} m at the start; "
+                    "move them apart or set allow_initial_overlap = true"
+                )
 
     def build(self, comm=None, domain=None):
         """Create the `Simulation` (on `comm`'s ranks; default one rank)."""
@@ -269,13 +286,27 @@ class Scene:
         particles = Particles(len(cols["gid"]) if domain.comm.size == 1 else 16)
         domain.distribute(particles, cols)
         guard = Guard.for_scene(self.walls, cols["pos"], s.get("domain"))
-        sim = Simulation(particles=particles, law=self.law, materials=self.materials, walls=self.walls,
-                         facets=self.facets, boxes=copy.deepcopy(self.boxes), gravity=s["gravity"], damping=s["damping"],
-                         dt=None if s["dt"] in ("auto", None) else s["dt"], dt_safety=s["dt_safety"],
-                         dt_interval=s["dt_interval"], pwave_factor=s["pwave_factor"], skin=skin,
-                         check_interval=s["check_interval"], max_overlap_ratio=s["max_overlap_ratio"],
-                         energy_check=s["energy_check"], domain=domain, spec=json.loads(json.dumps(self.spec())),
-                         guard=guard)
+        sim = Simulation(
+            particles=particles,
+            law=self.law,
+            materials=self.materials,
+            walls=self.walls,
+            facets=self.facets,
+            boxes=copy.deepcopy(self.boxes),
+            gravity=s["gravity"],
+            damping=s["damping"],
+            dt=None if s["dt"] in ("auto", None) else s["dt"],
+            dt_safety=s["dt_safety"],
+            dt_interval=s["dt_interval"],
+            pwave_factor=s["pwave_factor"],
+            skin=skin,
+            check_interval=s["check_interval"],
+            max_overlap_ratio=s["max_overlap_ratio"],
+            energy_check=s["energy_check"],
+            domain=domain,
+            spec=json.loads(json.dumps(self.spec())),
+            guard=guard,
+        )
         if not s["allow_initial_overlap"]:
             check_initial_overlaps(sim)
         return sim

@@ -30,7 +30,10 @@ def number(label, value, lo=None, hi=None, *, lo_open=False, hi_open=False, inte
         ok = float(value) == int(value) and not isinstance(value, (float, np.floating))
     if ok:
         v = float(value)
-        ok = not ((lo is not None and (v <= lo if lo_open else v < lo)) or (hi is not None and (v >= hi if hi_open else v > hi)))
+        ok = not (
+            (lo is not None and (v <= lo if lo_open else v < lo))
+            or (hi is not None and (v >= hi if hi_open else v > hi))
+        )
     if not ok:
         raise InputError(f"{label} = {value!r}: must be {allow}")
     return int(value) if integer else float(value)

@@ -119,8 +119,10 @@ class MemberProcess:
             self.log.write(f"pdem campaign: the member was killed by signal {-rc}\n")
             rc = 128 - rc
         if self.stop_sent is not None and rc in KILLED_BY_STOP:
-            self.log.write(f"pdem campaign: exit status {rc} after a stop signal: recorded as stopped ({EXIT_STOPPED}); "
-                           "running it again resumes from its newest checkpoint\n")
+            self.log.write(
+                f"pdem campaign: exit status {rc} after a stop signal: recorded as stopped ({EXIT_STOPPED}); "
+                "running it again resumes from its newest checkpoint\n"
+            )
             rc = EXIT_STOPPED
         return self._finish(rc)
 

@@ -9,7 +9,8 @@ njit-inline ``ip2(props, ma, mb, ra, rb, m1, m2, params, p)`` and ``force(...)``
 generated pair loop (`pdem.contact.loops`); and the numpy-level ``stiffness(params, history,
 overlap) -> (kn, ks)`` (time step), ``elastic_energy(params, history, overlap)`` (energy check),
 ``contact_forces(params, history, overlap, normal) -> (normal force, shear force)`` and
-``PARAM_NAMES`` (name -> parameter column) for `Simulation.contacts`, and, with a friction key, ``set_friction(n, mat_i, mat_j, props, params)``.
+``PARAM_NAMES`` (name -> parameter column) for `Simulation.contacts`, and, with a friction key,
+``set_friction(n, mat_i, mat_j, props, params)``.
 
 Added for the viscous and Hertz–Mindlin laws (issue 12):
 

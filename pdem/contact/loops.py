@@ -12,7 +12,8 @@ clear the row of a contact that opened → Ip2 once, when the contact is new (pa
 creation step in the last parameter column) → ScGeom::precompute: orthonormal axis n_old × n and
 twist axis (Δt/2 n_old·(ω1+ω2)) n_old from the normal stored in the geometry's history columns,
 relative velocity (Yade's, with the ratcheting factor; or at the contact point without it for a
-law with ``CONTACT_POINT_VELOCITY``), its normal part vn passed on and removed, Δu_s = v_t Δt → Law2 → outputs per row: the force on
+law with ``CONTACT_POINT_VELOCITY``), its normal part vn passed on and removed, Δu_s = v_t Δt → Law2 → outputs
+per row: the force on
 body 1 (pairs of particles) or on the sphere (boundaries), torques, overlap. Rows are written
 only by their own iteration (race-free under ``prange``); `pdem.forces` sums them per body in a
 fixed order. The loop returns the largest overlap over the smaller radius of its contacts

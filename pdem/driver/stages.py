@@ -91,7 +91,9 @@ class StagedRun:
         if resume is not None:
             self.tables, self.meta = read_checkpoint(resume)
             if self.meta.get("scene_file") != self.scene_text or self.NAME not in self.meta:
-                raise CheckpointError(resume, "cannot continue this scene from it: it was written for another scene file")
+                raise CheckpointError(
+                    resume, "cannot continue this scene from it: it was written for another scene file"
+                )
             self.state = self.meta[self.NAME]
             k = self.state["stage"]
             self.loop.log(f"resuming from {resume} at step {self.meta['step']} (stage "

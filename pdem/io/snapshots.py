@@ -161,7 +161,10 @@ class SnapshotWriter:
             # record and continue in a fresh one rather than refuse to resume the run.
             aside = self.h5_path.with_name(self.h5_path.name + ".damaged")
             self.h5_path.replace(aside)
-            log(f"snapshot file {self.h5_path.name} is damaged ({exc.reason}); moved to {aside.name}, starting a new one")
+            log(
+                f"snapshot file {self.h5_path.name} is damaged ({exc.reason}); moved to {aside.name}, starting "
+                "a new one"
+            )
         else:
             with f:
                 for name in list(f):

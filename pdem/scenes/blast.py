@@ -127,18 +127,26 @@ def blast_settings(doc):
         c[k] = number(f"blast.{k}", c[k], 0.0, lo_open=True)
     for k in ("settle_min_time", "plate_settle_min_time"):
         c[k] = number(f"blast.{k}", c[k], 0.0)
-    c["prep_damping"] = number("blast.prep_damping", c["prep_damping"], 0.0, 0.99, allow="in [0, 0.99] (Cundall's lambda_D)")
-    c["plate_damping"] = number("blast.plate_damping", c["plate_damping"], 0.0, 0.99, allow="in [0, 0.99] (Cundall's lambda_D)")
+    c["prep_damping"] = number(
+        "blast.prep_damping", c["prep_damping"], 0.0, 0.99, allow="in [0, 0.99] (Cundall's lambda_D)"
+    )
+    c["plate_damping"] = number(
+        "blast.plate_damping", c["plate_damping"], 0.0, 0.99, allow="in [0, 0.99] (Cundall's lambda_D)"
+    )
     c["prep_stiffness_factor"] = number("blast.prep_stiffness_factor", c["prep_stiffness_factor"], 0.0, 1.0,
                                         lo_open=True, allow="in (0, 1]")
     for k in ("seed", "check_every", "record_every"):
         c[k] = number(f"blast.{k}", c[k], 0 if k == "seed" else 1, integer=True)
     if c["diameter_max"] < c["diameter_min"]:
-        raise InputError(f"blast.diameter_max = {c['diameter_max']!r}: must be >= diameter_min = {c['diameter_min']!r} [m]")
+        raise InputError(
+            f"blast.diameter_max = {c['diameter_max']!r}: must be >= diameter_min = {c['diameter_min']!r} [m]"
+        )
     plates = c["plates"]
     if not (isinstance(plates, list) and plates):
         raise InputError(f"blast.plates = {plates!r}: must be a list of plate areal masses > 0 [kg/m^2]")
-    c["plates"] = [number("blast.plates", m, 0.0, lo_open=True, allow="plate areal masses > 0 [kg/m^2]") for m in plates]
+    c["plates"] = [
+        number("blast.plates", m, 0.0, lo_open=True, allow="plate areal masses > 0 [kg/m^2]") for m in plates
+    ]
     if len(set(c["plates"])) != len(c["plates"]):
         raise InputError(f"blast.plates = {plates!r}: each areal mass at most once (one results directory each)")
     if not isinstance(c["prepared_from"], str):
@@ -250,11 +258,17 @@ def read_prepared(path, c, materials):
 # ---------------------------------------------------------------------------- records
 def prep_sample(sim, stage_index):
     e = sim.energy()
-    return {"step": sim.step, "time": sim.time, "stage": stage_index,
-            "n_spheres": sim.comm.allreduce_sum_int(sim.particles.n_local), "kinetic_energy": e["kinetic"] + e["rotational"],
-            "unbalanced_force": observables.unbalanced_force(sim), "contacts_per_particle": sim.contacts_per_particle(),
-            "bed_top": observables.bed_top(sim),
-            "sleeper_z": float(sim.boxes.center[0, 2]) if sim.boxes is not None else float("nan")}
+    return {
+        "step": sim.step,
+        "time": sim.time,
+        "stage": stage_index,
+        "n_spheres": sim.comm.allreduce_sum_int(sim.particles.n_local),
+        "kinetic_energy": e["kinetic"] + e["rotational"],
+        "unbalanced_force": observables.unbalanced_force(sim),
+        "contacts_per_particle": sim.contacts_per_particle(),
+        "bed_top": observables.bed_top(sim),
+        "sleeper_z": float(sim.boxes.center[0, 2]) if sim.boxes is not None else float("nan"),
+    }
 
 
 def blast_sample(sim, t0, load, area):
@@ -361,8 +375,10 @@ class BlastRun(StagedRun):
             p = tables["particles"]
             top = float(np.max(p["pos"][:, 2] + p["radius"]))
             state["plate_center"] = plate_geometry(c, top)[0].tolist()
-            return tables, (f"from the prepared layer {state['prepared']}: placed the plate of {self.plate_of(stage):g} "
-                            f"kg/m^2 on the highest grain (z = {top:.4f} m)")
+            return tables, (
+                f"from the prepared layer {state['prepared']}: placed the plate of {self.plate_of(stage):g} "
+                f"kg/m^2 on the highest grain (z = {top:.4f} m)"
+            )
         if stage.startswith("blast"):
             state["blast_t0"] = float(self.meta["time"]) if self.meta else 0.0
         return tables, ""
@@ -422,7 +438,9 @@ class BlastRun(StagedRun):
                 return True
             if sim.time - t0 < t_min or observables.unbalanced_force(sim) >= ratio:
                 return False
-            return not plate or (plate_balance(sim) < ratio and abs(sim.boxes.velocity[0, 2]) < c["plate_settle_velocity"])
+            return not plate or (
+                plate_balance(sim) < ratio and abs(sim.boxes.velocity[0, 2]) < c["plate_settle_velocity"]
+            )
 
         return on_step, settled, c["check_every"], t_end
 
@@ -469,9 +487,11 @@ class BlastRun(StagedRun):
         eta = float(np.max(sim.materials.column("damping_ratio")))
         k_max = sim.comm.allreduce_max(float(kn.max()) if len(kn) else 0.0)
         if k_max > 0:
-            self.loop.log(f"plate {mass:g} kg/m^2: dt = {sim.dt:.3e} s (automatic); the paper's eq. 10 with the smallest "
-                          f"mass {m_min:.3e} kg, the largest k_n {k_max:.3e} N/m, eta = {eta:g}: "
-                          f"{viscous.critical_step(k_max, m_min, eta):.3e} s")
+            self.loop.log(
+                f"plate {mass:g} kg/m^2: dt = {sim.dt:.3e} s (automatic); the paper's eq. 10 with the smallest "
+                f"mass {m_min:.3e} kg, the largest k_n {k_max:.3e} N/m, eta = {eta:g}: "
+                f"{viscous.critical_step(k_max, m_min, eta):.3e} s"
+            )
 
     def snapshot(self, sim, stage_end=False):
         every = self.run_cfg["snapshot_every"]
@@ -484,13 +504,19 @@ class BlastRun(StagedRun):
         if stage in PREP_STAGES or stage.startswith("plate"):
             want = c["plate_settle_ratio" if stage.startswith("plate") else "settle_ratio"]
             if ratio >= want or (stage.startswith("plate") and plate_balance(sim) >= want):
-                log(f"warning: stage {stage} reached its maximum time with unbalanced force ratio {ratio:.3g} >= {want}; "
-                    "going on")
+                log(
+                    f"warning: stage {stage} reached its maximum time with unbalanced force ratio {ratio:.3g} "
+                    f">= {want}; "
+                    "going on"
+                )
             self.prep.append(prep_sample(sim, self.STAGES.index(stage)))
         top = observables.bed_top(sim)
         plate = "" if sim.boxes is None else f", plate bottom {sim.boxes.center[0, 2] - sim.boxes.half[0, 2]:.5f} m"
-        log(f"stage {stage} done at t = {sim.time:.5f} s, step {sim.step}: unbalanced force ratio {ratio:.3g}, layer top "
-            f"{top:.4f} m{plate}")
+        log(
+            f"stage {stage} done at t = {sim.time:.5f} s, step {sim.step}: unbalanced force ratio {ratio:.3g}, "
+            "layer top "
+            f"{top:.4f} m{plate}"
+        )
         self.snapshot(sim, stage_end=True)
         if stage == "settle":
             self.write_prepared(sim)
@@ -551,23 +577,36 @@ def finish(out, state, c, path, ranks, wall_s, timing):
     dirs = [out / plate_dir(m) for m in c["plates"]]
     argv = ["blast", *map(str, dirs), "--out", str(out / "analysis")]
     status = analysis_main(argv)
-    lines = [f"blast layer: {path}", f"ranks: {ranks}", f"wall time: {wall_s:.1f} s", f"prepared layer: {state['prepared']}",
-             "", "stage        t_end [s]    steps  spheres  unbalanced  layer top [m]  plate z [m]  wall [s]"]
+    lines = [
+        f"blast layer: {path}",
+        f"ranks: {ranks}",
+        f"wall time: {wall_s:.1f} s",
+        f"prepared layer: {state['prepared']}",
+        "",
+        "stage        t_end [s]    steps  spheres  unbalanced  layer top [m]  plate z [m]  wall [s]",
+    ]
     for r in state["stages"]:
         z = f"{r['plate_z']:.5f}" if r["plate_z"] is not None else "-"
-        lines.append(f"{r['stage']:<10} {r['t_end']:11.5f} {r['step_end']:8d} {r['spheres']:8d} {r['unbalanced_force']:11.3g} "
-                     f"{r['bed_top']:14.5f} {z:>12} {r['wall_s']:9.1f}")
-    lines += ["", f"impulse F0 = {c['F0']:g} N over tau = {c['tau']:g} s, {c['duration'] * 1e3:g} ms recorded",
-              "plate [kg/m^2]   I_s [MPa s]   I_s/I_in   I_s,dyn/I_in   peak sigma_0 [MPa]   paper I_s   paper I_s/I_in"]
+        lines.append(
+            f"{r['stage']:<10} {r['t_end']:11.5f} {r['step_end']:8d} {r['spheres']:8d} {r['unbalanced_force']:11.3g} "
+            f"{r['bed_top']:14.5f} {z:>12} {r['wall_s']:9.1f}"
+        )
+    lines += [
+        "",
+        f"impulse F0 = {c['F0']:g} N over tau = {c['tau']:g} s, {c['duration'] * 1e3:g} ms recorded",
+        "plate [kg/m^2]   I_s [MPa s]   I_s/I_in   I_s,dyn/I_in   peak sigma_0 [MPa]   paper I_s   paper I_s/I_in",
+    ]
     for m, d in zip(c["plates"], dirs):
         f = out / "analysis" / ("blast.json" if len(dirs) == 1 else f"{d.name}/blast.json")
         if not f.exists():
             continue
         r = json.loads(f.read_text())
         paper = r["paper"] or {}
-        lines.append(f"{m:14g}   {r['impulse'] * 1e-6:11.4e}   {r['amplification']:8.3f}   {r['amplification_dynamic']:12.3f}"
-                     f"   {r['peak_stress'] * 1e-6:18.3f}   {paper.get('impulse', float('nan')) * 1e-6:9.3e}   "
-                     f"{paper.get('amplification', float('nan')):14.2f}")
+        lines.append(
+            f"{m:14g}   {r['impulse'] * 1e-6:11.4e}   {r['amplification']:8.3f}   {r['amplification_dynamic']:12.3f}"
+            f"   {r['peak_stress'] * 1e-6:18.3f}   {paper.get('impulse', float('nan')) * 1e-6:9.3e}   "
+            f"{paper.get('amplification', float('nan')):14.2f}"
+        )
     lines += ["", timing]
     (out / "summary.txt").write_text("\n".join(lines) + "\n")
     print("\n".join(lines), flush=True)

@@ -179,11 +179,17 @@ def shaking(c, t):
 # ---------------------------------------------------------------------------- records
 def prep_sample(sim, stage):
     e = sim.energy()
-    return {"step": sim.step, "time": sim.time, "stage": STAGES.index(stage),
-            "n_spheres": sim.comm.allreduce_sum_int(sim.particles.n_local), "kinetic_energy": e["kinetic"] + e["rotational"],
-            "unbalanced_force": observables.unbalanced_force(sim), "contacts_per_particle": sim.contacts_per_particle(),
-            "bed_top": observables.bed_top(sim),
-            "sleeper_z": float(sim.boxes.center[0, 2]) if sim.boxes is not None else float("nan")}
+    return {
+        "step": sim.step,
+        "time": sim.time,
+        "stage": STAGES.index(stage),
+        "n_spheres": sim.comm.allreduce_sum_int(sim.particles.n_local),
+        "kinetic_energy": e["kinetic"] + e["rotational"],
+        "unbalanced_force": observables.unbalanced_force(sim),
+        "contacts_per_particle": sim.contacts_per_particle(),
+        "bed_top": observables.bed_top(sim),
+        "sleeper_z": float(sim.boxes.center[0, 2]) if sim.boxes is not None else float("nan"),
+    }
 
 
 def load_sample(sim, reference, load=None):
@@ -271,8 +277,9 @@ class BoxTestRun(StagedRun):
             for k, (a, b) in enumerate(((0.0, x0), (x1, lx))):
                 if b - a <= 0:
                     continue
-                tables = add_cloud(tables, doc, c, (a, 0.0), (b, ly), h1, (b - a) * ly * (h2 - h1), c["seed"] + 1000 + k,
-                                   gid)
+                tables = add_cloud(
+                    tables, doc, c, (a, 0.0), (b, ly), h1, (b - a) * ly * (h2 - h1), c["seed"] + 1000 + k, gid
+                )
                 gid = int(tables["particles"]["gid"].max()) + 1
             return tables, (f"removed {removed} spheres above {h1} m, placed the sleeper, poured "
                             f"{len(tables['particles']['gid']) - n0} spheres beside it")
@@ -291,7 +298,9 @@ class BoxTestRun(StagedRun):
         if stage == "vibrate":
             c = self.c
             sim.set_friction_scale(c["vibration_friction_factor"])
-            sim.gravity = np.asarray(scene.settings["gravity"], np.float64) + shaking(c, sim.time - self.state["stage_t0"])
+            sim.gravity = np.asarray(scene.settings["gravity"], np.float64) + shaking(
+                c, sim.time - self.state["stage_t0"]
+            )
 
     def max_steps(self, stage):
         return 0 if stage == "vibrate" and self.c["vibration_time"] == 0 else 10**15
@@ -311,15 +320,22 @@ class BoxTestRun(StagedRun):
                 if done is not None:
                     done["step"] = sim.step
                     write_cycles(self.results, cycle_columns(rec), self.comm)
-                    self.loop.log(f"cycle {done['cycle'] + 1}/{c['cycles']}: settlement start "
-                                  f"{1e3 * done['settlement_start']:.3f} mm, peak {1e3 * done['settlement_peak']:.3f} mm, "
-                                  f"end {1e3 * done['settlement_end']:.3f} mm; ballast force {done['force_min']:.1f} .. "
-                                  f"{done['force_max']:.1f} N")
+                    self.loop.log(
+                        f"cycle {done['cycle'] + 1}/{c['cycles']}: settlement start "
+                        f"{1e3 * done['settlement_start']:.3f} mm, peak {1e3 * done['settlement_peak']:.3f} mm, "
+                        f"end {1e3 * done['settlement_end']:.3f} mm; ballast force {done['force_min']:.1f} .. "
+                        f"{done['force_max']:.1f} N"
+                    )
                 if run["output_every"] and sim.step % run["output_every"] == 0:
                     self.series.append(load_sample(sim, rec.reference))
                 self.snapshot(sim)
 
-            return on_step, lambda sim: len(rec.records) >= c["cycles"], 1, state["load_start"] + c["cycles"] / c["frequency"]
+            return (
+                on_step,
+                lambda sim: len(rec.records) >= c["cycles"],
+                1,
+                state["load_start"] + c["cycles"] / c["frequency"],
+            )
         if sim.step == 0:  # later stages start at the step of the row that ended the last one
             self.prep.append(prep_sample(sim, stage))
             if self.snaps is not None:
@@ -360,8 +376,11 @@ class BoxTestRun(StagedRun):
             sim.set_friction_scale(1.0)
         top = observables.bed_top(sim)
         sleeper = sim.boxes.center[0, 2] if sim.boxes is not None else None
-        log(f"stage {stage} done at t = {sim.time:.4f} s, step {sim.step}: unbalanced force ratio {ratio:.3g}, "
-            f"bed top {top:.4f} m" + ("" if sleeper is None else f", sleeper bottom {sleeper - sim.boxes.half[0, 2]:.4f} m"))
+        log(
+            f"stage {stage} done at t = {sim.time:.4f} s, step {sim.step}: unbalanced force ratio {ratio:.3g}, "
+            f"bed top {top:.4f} m"
+            + ("" if sleeper is None else f", sleeper bottom {sleeper - sim.boxes.half[0, 2]:.4f} m")
+        )
         self.snapshot(sim, stage_end=True)
         if stage != "load":
             self.prep.append(prep_sample(sim, stage))
@@ -407,8 +426,10 @@ def finish(out, results, sim, state, c, path, ranks, wall_s):
              "stage     t_end [s]    steps  spheres  unbalanced  bed top [m]  sleeper z [m]  wall [s]"]
     for r in state["stages"]:
         z = f"{r['sleeper_z']:.4f}" if r["sleeper_z"] is not None else "-"
-        lines.append(f"{r['stage']:<8} {r['t_end']:9.4f} {r['step_end']:8d} {r['spheres']:8d} {r['unbalanced_force']:11.3g} "
-                     f"{r['bed_top']:12.4f} {z:>14} {r['wall_s']:9.1f}")
+        lines.append(
+            f"{r['stage']:<8} {r['t_end']:9.4f} {r['step_end']:8d} {r['spheres']:8d} {r['unbalanced_force']:11.3g} "
+            f"{r['bed_top']:12.4f} {z:>14} {r['wall_s']:9.1f}"
+        )
     lines += ["", f"cycles {c['f_min']:g} <-> {c['f_max']:g} N at {c['frequency']:g} Hz",
               "cycle  settlement start/peak/end [mm]     ballast force min/max [N]"]
     import h5py
@@ -417,8 +438,11 @@ def finish(out, results, sim, state, c, path, ranks, wall_s):
         cyc = {k: f["cycles"][k][...] for k in f["cycles"]} if "cycles" in f else None
     if cyc is not None:
         for k in range(len(cyc["cycle"])):
-            lines.append(f"{int(cyc['cycle'][k]):5d}  {1e3 * cyc['settlement_start'][k]:9.3f} {1e3 * cyc['settlement_peak'][k]:9.3f} "
-                         f"{1e3 * cyc['settlement_end'][k]:9.3f}   {cyc['force_min'][k]:10.1f} {cyc['force_peak'][k]:10.1f}")
+            lines.append(
+                f"{int(cyc['cycle'][k]):5d}  {1e3 * cyc['settlement_start'][k]:9.3f} "
+                f"{1e3 * cyc['settlement_peak'][k]:9.3f} "
+                f"{1e3 * cyc['settlement_end'][k]:9.3f}   {cyc['force_min'][k]:10.1f} {cyc['force_peak'][k]:10.1f}"
+            )
     lines += ["", sim.timing_table()]
     (out / "summary.txt").write_text("\n".join(lines) + "\n")
     print("\n".join(lines), flush=True)

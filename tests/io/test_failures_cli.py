@@ -158,8 +158,11 @@ def test_bad_input_once_status_2(tmp_path, n_ranks, edit, words):
 def test_output_directory_problems(tmp_path, n_ranks):
     s = scene(tmp_path)
     (tmp_path / "afile").write_text("x")
-    for out, words in (("afile", ["--out afile", "not a directory"]), ("afile/sub", ["--out afile/sub", "Not a directory"]),
-                       ("/dev/null", ["--out /dev/null", "not a directory"])):
+    for out, words in (
+        ("afile", ["--out afile", "not a directory"]),
+        ("afile/sub", ["--out afile/sub", "Not a directory"]),
+        ("/dev/null", ["--out /dev/null", "not a directory"]),
+    ):
         rc, _, err = run(n_ranks, ["run", str(s), "--out", out], tmp_path)
         lines = pdem_lines(err)
         assert rc == 2 and len(lines) == 1 and "Traceback" not in err, (out, rc, err[-2000:])
@@ -170,7 +173,9 @@ def test_output_directory_problems(tmp_path, n_ranks):
 def test_negative_steps_refused(tmp_path):
     s = scene(tmp_path)
     rc, _, err = run(2, ["run", str(s), "--out", "out", "--steps", "-5"], tmp_path)
-    assert rc == 2 and pdem_lines(err) == ["pdem: error: --steps = -5: must be an integer >= 0 (the total steps of the run)"]
+    assert rc == 2 and pdem_lines(err) == [
+        "pdem: error: --steps = -5: must be an integer >= 0 (the total steps of the run)"
+    ]
 
 
 @pytest.mark.parametrize("n_ranks", [1, 2])

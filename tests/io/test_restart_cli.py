@@ -66,7 +66,9 @@ walls_material = "ballast"
 # the checkpoints are written on 2 ranks; without mpiexec (a machine without MPI) on 1, and the
 # tests that need several ranks are skipped
 WRITER_RANKS = 2 if MPIEXEC.exists() else 1
-needs_mpiexec = pytest.mark.skipif(not MPIEXEC.exists(), reason="multi-rank test: no mpiexec next to the Python executable")
+needs_mpiexec = pytest.mark.skipif(
+    not MPIEXEC.exists(), reason="multi-rank test: no mpiexec next to the Python executable"
+)
 
 
 def final_tables(out, step=N_STEPS):
@@ -125,8 +127,14 @@ def test_sigterm_checkpoint_and_resume(runs):
     base, scene, _ = runs
     out = base / "sigterm"
     env = dict(os.environ, OMP_NUM_THREADS="1")
-    p = subprocess.Popen(pdem_cmd(WRITER_RANKS, scene, out), stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
-                         start_new_session=True, env=env)
+    p = subprocess.Popen(
+        pdem_cmd(WRITER_RANKS, scene, out),
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+        start_new_session=True,
+        env=env,
+    )
     seen = []
     for line in p.stdout:
         seen.append(line)

@@ -48,4 +48,6 @@ def test_box_trajectory_rank_invariant(comm):
     assert np.max(ref[:, 8]) > 0.0, "the box never touched the bed"
     if comm.size > 1:
         assert comm.allreduce_sum_int(len(sim.kind("sphere_box").contacts.real_rows())) > 0
-        assert comm.allreduce_sum_int(int(len(sim.kind("sphere_box").contacts.real_rows()) > 0)) > 1, "box contacts on one rank only"
+        assert comm.allreduce_sum_int(int(len(sim.kind("sphere_box").contacts.real_rows()) > 0)) > 1, (
+            "box contacts on one rank only"
+        )

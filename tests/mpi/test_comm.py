@@ -230,4 +230,7 @@ def test_agree_on_failure_when_every_rank_fails(comm, capsys):
     err = capsys.readouterr().err
     assert status == (4 if comm.size > 1 else 4)
     if comm.rank == 0 and comm.size > 1:
-        assert err.splitlines() == ["pdem: error: bad (rank 0)", f"pdem: unstable: step 7: blew up (rank {comm.size - 1})"]
+        assert err.splitlines() == [
+            "pdem: error: bad (rank 0)",
+            f"pdem: unstable: step 7: blew up (rank {comm.size - 1})",
+        ]

@@ -125,7 +125,9 @@ def test_loaded_box_settles_on_bed_of_fixed_spheres():
     assert box_forces(sim)[0, 2] == pytest.approx(load + mass * G, rel=1e-6)
     assert sim.boxes.center[0, 2] == pytest.approx(R + half[2] - pen, abs=1e-6 * pen)
     assert abs(sim.boxes.velocity[0, 2]) < 1e-6
-    np.testing.assert_allclose(sim.kind("sphere_box").contacts.overlap[sim.kind("sphere_box").contacts.real_rows()], pen, rtol=1e-5)
+    np.testing.assert_allclose(
+        sim.kind("sphere_box").contacts.overlap[sim.kind("sphere_box").contacts.real_rows()], pen, rtol=1e-5
+    )
 
 
 def test_blocked_dofs_hold_under_oblique_contacts():
@@ -206,7 +208,11 @@ def test_haversine_on_box_and_cycle_record():
     times = np.array([t for t, _ in z])
     zz = np.array([v for _, v in z])
     for k in range(3):
-        for name, tk in (("settlement_start", k / f), ("settlement_peak", (k + 0.5) / f), ("settlement_end", (k + 1) / f)):
+        for name, tk in (
+            ("settlement_start", k / f),
+            ("settlement_peak", (k + 0.5) / f),
+            ("settlement_end", (k + 1) / f),
+        ):
             i = int(np.flatnonzero(times >= tk)[0])  # first sample at or after the instant
             assert tab[name][k] == pytest.approx(z0 - zz[i], abs=1e-15)
     # quasi-static: at the peak the bed carries ≈ F_max + M g (the load changes slowly vs the period)

@@ -40,7 +40,11 @@ def test_elastic_bounce_conserves_energy(gap):
     assert e0["total"] == pytest.approx(0.5 * M * 1.0, rel=1e-15)
     touched = []
     t_contact = math.pi * math.sqrt(M / KN_WALL)
-    sim.run(int((gap / 1.0 + 2 * t_contact) / dt), lambda s: touched.append(s.kind("sphere_wall").contacts.state[0] == 1), every=1)
+    sim.run(
+        int((gap / 1.0 + 2 * t_contact) / dt),
+        lambda s: touched.append(s.kind("sphere_wall").contacts.state[0] == 1),
+        every=1,
+    )
     assert any(touched) and not touched[-1], "the sphere must hit the wall and leave it again"
     assert p.vel[0, 2] > 0.0
     assert abs(np.linalg.norm(p.vel[0]) / 1.0 - 1.0) < 1e-6

@@ -5,7 +5,8 @@
   (Hertz 1882; Johnson, Contact Mechanics, §11.4).
 - Damped impact: the restitution of m* δ'' = −(4/3 E* √R* δ^(3/2) + γ_n(δ) δ'), γ_n = 2 sqrt(5/6) |β|
   sqrt(2 E* sqrt(R* δ) m*), β = ln e/sqrt(ln² e + π²) (Tsuji et al. 1992), integrated here by
-  classical Runge–Kutta with 40000 steps per contact (no scipy in the engine's venv); it does not depend on the impact velocity, and is close to the e asked for.
+  classical Runge–Kutta with 40000 steps per contact (no scipy in the engine's venv); it does not depend on the
+  impact velocity, and is close to the e asked for.
 - Mindlin: a sphere held at a fixed overlap and dragged along the plane (no slip, e = 1 so no
   tangential dashpot) carries F_t = 8 G* sqrt(R* δ) ξ, ξ the tangential displacement.
 - Bad input: e outside (0, 1], ν outside (−1, 0.5]: one line naming the field.

@@ -40,7 +40,10 @@ def test_newton_third_law_and_angular_momentum():
     x = p.pos[:n].copy()
     sim.run(1)
     rows = sim.kind("sphere_sphere").contacts.real_rows()
-    per_body = np.bincount(np.concatenate([sim.kind("sphere_sphere").contacts.i[rows], sim.kind("sphere_sphere").contacts.j[rows]]), minlength=n)
+    per_body = np.bincount(
+        np.concatenate([sim.kind("sphere_sphere").contacts.i[rows], sim.kind("sphere_sphere").contacts.j[rows]]),
+        minlength=n,
+    )
     assert per_body.max() >= 4 and len(rows) > 100, "the packing must be dense"
     f, t = sphere_sphere_share(sim)
     scale_f = np.abs(f).sum()
@@ -52,15 +55,29 @@ def test_newton_third_law_and_angular_momentum():
     # and per contact, from the pair rows: f on i, −f on j, torques (r − pen/2)(n × f)
     i, j = sim.kind("sphere_sphere").contacts.i[rows], sim.kind("sphere_sphere").contacts.j[rows]
     fp = sim.kind("sphere_sphere").contacts.force[rows]
-    m_pair = np.cross(x[i], fp) - np.cross(x[j], fp) + sim.kind("sphere_sphere").contacts.torque_i[rows] + sim.kind("sphere_sphere").contacts.torque_j[rows]
+    m_pair = (
+        np.cross(x[i], fp)
+        - np.cross(x[j], fp)
+        + sim.kind("sphere_sphere").contacts.torque_i[rows]
+        + sim.kind("sphere_sphere").contacts.torque_j[rows]
+    )
     assert np.abs(m_pair).max() <= 1e-10 * np.abs(np.cross(x[i], fp)).max()
 
 
 def test_stiff_auto_dt_stable():
     """(f) E = 5.55e11 Pa spheres (216) with random ≤ 1 m/s velocities and gravity in a box of steel walls
     (10 E), automatic Δt: thousands of steps without InstabilityError, overlaps stay tiny."""
-    sc = box_scene(216, seed=5, r_min=0.00999, r_max=0.01, young=5.55e11, wall_young=5.55e12, damping=0.3, vel_scale=1.0,
-                   spacing=1.002)
+    sc = box_scene(
+        216,
+        seed=5,
+        r_min=0.00999,
+        r_max=0.01,
+        young=5.55e11,
+        wall_young=5.55e12,
+        damping=0.3,
+        vel_scale=1.0,
+        spacing=1.002,
+    )
     sim = sc.build()
     dt0 = sim.dt
     r_min = sim.particles.radius[: sim.particles.n_local].min()
@@ -72,7 +89,10 @@ def test_stiff_auto_dt_stable():
     for _ in range(60):
         sim.run(50)
         worst = max(worst, diagnostics.max_overlap_ratio(sim)[0])
-        contacts = max(contacts, len(sim.kind("sphere_sphere").contacts.real_rows()) + len(sim.kind("sphere_wall").contacts.real_rows()))
+        contacts = max(
+            contacts,
+            len(sim.kind("sphere_sphere").contacts.real_rows()) + len(sim.kind("sphere_wall").contacts.real_rows()),
+        )
         dts.append(sim.dt)
     assert sim.step == 3000
     assert contacts >= 10

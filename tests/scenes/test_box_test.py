@@ -72,7 +72,9 @@ cycles = 2
 """
 N_CYCLES, F_MAX, SLEEPER_WEIGHT = 2, 300.0, 5.0 * 9.81
 
-needs_mpiexec = pytest.mark.skipif(not MPIEXEC.exists(), reason="multi-rank test: no mpiexec next to the Python executable")
+needs_mpiexec = pytest.mark.skipif(
+    not MPIEXEC.exists(), reason="multi-rank test: no mpiexec next to the Python executable"
+)
 
 
 def groups(path):

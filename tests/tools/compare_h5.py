@@ -58,7 +58,10 @@ def main(argv=None):
         n += k
     for line in bad:
         print(line)
-    print(f"{len(pairs)} file(s), {n} dataset(s) compared: {'all bit-identical' if not bad else f'{len(bad)} difference(s)'}")
+    print(
+        f"{len(pairs)} file(s), {n} dataset(s) compared: "
+        f"{'all bit-identical' if not bad else f'{len(bad)} difference(s)'}"
+    )
     return 1 if bad else 0
 
 

@@ -81,7 +81,9 @@ def test_engine_imports_no_driver_scenes_or_analysis():
 
 
 def test_only_parallel_comm_imports_mpi4py():
-    users = sorted(name for name, path in pdem_modules().items() if any(i.split(".")[0] == "mpi4py" for i in imports(path)))
+    users = sorted(
+        name for name, path in pdem_modules().items() if any(i.split(".")[0] == "mpi4py" for i in imports(path))
+    )
     assert users == ["pdem.parallel.comm"], users
 
 
@@ -124,7 +126,9 @@ def test_no_import_cycle_in_pdem():
     for name, path in mods.items():
         deps = existing(imports(path), mods)
         # importing pkg.sub runs pkg/__init__ first, but that is not a dependency of pkg.sub on pkg
-        graph[name] = {d for d in deps if d != name and not (d in mods and is_package(mods[d]) and name.startswith(d + "."))}
+        graph[name] = {
+            d for d in deps if d != name and not (d in mods and is_package(mods[d]) and name.startswith(d + "."))
+        }
     cycle = find_cycle(graph)
     assert cycle is None, "import cycle: " + " -> ".join(cycle)
 

@@ -53,11 +53,22 @@ def test_friction_scale_reruns_ip2_for_existing_contacts_and_restores_bits():
     sim.run(1)
     for cl in (sim.kind("sphere_sphere").contacts, sim.kind("sphere_wall").contacts):
         assert len(cl.real_rows()) > 0
-    before = {id(cl): cl.params[: cl.n].copy() for cl in (sim.kind("sphere_sphere").contacts, sim.kind("sphere_wall").contacts)}
+    before = {
+        id(cl): cl.params[: cl.n].copy()
+        for cl in (sim.kind("sphere_sphere").contacts, sim.kind("sphere_wall").contacts)
+    }
     sim.set_friction_scale(0.1)
     ss = sim.kind("sphere_sphere").contacts.real_rows()
-    expect = [tan(0.05) if {int(sim.particles.material[i]) for i in (sim.kind("sphere_sphere").contacts.i[k], sim.kind("sphere_sphere").contacts.j[k])} == {0}
-              else tan(0.03) for k in ss]
+    expect = [
+        tan(0.05)
+        if {
+            int(sim.particles.material[i])
+            for i in (sim.kind("sphere_sphere").contacts.i[k], sim.kind("sphere_sphere").contacts.j[k])
+        }
+        == {0}
+        else tan(0.03)
+        for k in ss
+    ]
     assert np.array_equal(sim.kind("sphere_sphere").contacts.params[ss, 2], expect)
     assert np.all(sim.kind("sphere_wall").contacts.params[sim.kind("sphere_wall").contacts.real_rows(), 2] == tan(0.03))
     assert np.array_equal(sim.props[:, 2], np.array([0.5, 0.3]) * 0.1)

@@ -15,19 +15,29 @@ from pdem.parallel.comm import SerialComm
 from pdem.parallel.slabs import ghost_destinations, max_slabs, uniform_edges
 
 
-@pytest.mark.parametrize("exc, status, start", [
-    (InputError("dt = True: must be a number"), 2, "error: dt = True"),
-    (CheckpointError("/x/ckpt_1.h5", "damaged"), 2, "error: checkpoint ckpt_1.h5: damaged"),
-    (CheckpointWriteError("/x/ckpt_1.h5", "[Errno 28] No space"), 5, "error: writing checkpoint ckpt_1.h5"),
-    (ResultsFileError("/x/results.h5", "damaged"), 2, "error: results file results.h5: damaged"),
-    (InstabilityError("step 3: overlap"), 4, "unstable: step 3: overlap"),
-    (MemoryError(), 5, "error: out of memory"),
-    (OSError(errno.ENOSPC, "No space left on device", "/x/results.h5"), 5, "error: no space left on the device writing /x/results.h5"),
-    (OSError("Unable to synchronously write data (file write failed: errno = 28, error message = 'No space')"), 5,
-     "error: no space left"),
-    (OSError(errno.EACCES, "Permission denied", "/x"), 5, "error: /x: Permission denied"),
-    (RuntimeError("a bug\nover two lines"), 1, "internal error: RuntimeError: a bug over two lines"),
-])
+@pytest.mark.parametrize(
+    "exc, status, start",
+    [
+        (InputError("dt = True: must be a number"), 2, "error: dt = True"),
+        (CheckpointError("/x/ckpt_1.h5", "damaged"), 2, "error: checkpoint ckpt_1.h5: damaged"),
+        (CheckpointWriteError("/x/ckpt_1.h5", "[Errno 28] No space"), 5, "error: writing checkpoint ckpt_1.h5"),
+        (ResultsFileError("/x/results.h5", "damaged"), 2, "error: results file results.h5: damaged"),
+        (InstabilityError("step 3: overlap"), 4, "unstable: step 3: overlap"),
+        (MemoryError(), 5, "error: out of memory"),
+        (
+            OSError(errno.ENOSPC, "No space left on device", "/x/results.h5"),
+            5,
+            "error: no space left on the device writing /x/results.h5",
+        ),
+        (
+            OSError("Unable to synchronously write data (file write failed: errno = 28, error message = 'No space')"),
+            5,
+            "error: no space left",
+        ),
+        (OSError(errno.EACCES, "Permission denied", "/x"), 5, "error: /x: Permission denied"),
+        (RuntimeError("a bug\nover two lines"), 1, "internal error: RuntimeError: a bug over two lines"),
+    ],
+)
 def test_classify(exc, status, start):
     s, line, tb = classify(exc)
     assert s == status and line.startswith(start) and "\n" not in line, line

@@ -23,19 +23,29 @@ def _doc(**changes):
     return d
 
 
-@pytest.mark.parametrize("doc, words", [
-    (_doc(simulation={"dampin": 0.3}), ["simulation.dampin", "unknown key", "damping"]),
-    (_doc(simulation={"damping": 1.5}), ["damping", "1.5", "[0, 0.99]"]),
-    (_doc(simulation={"dt": -1e-6}), ["dt", "-1e-06", "> 0"]),
-    (_doc(materials={"ballast": {"density": 2600.0, "young": -5.0, "poisson": 0.3, "friction_angle": 0.5}}),
-     ["young", "-5.0", "> 0"]),
-    (_doc(materials={"ballast": {"density": 2600.0, "young": 1e7, "poisson": 0.3}}), ["friction_angle", "missing"]),
-    (_doc(spheres=[{"pos": [[0, 0, 0]], "radius": 0.01, "material": "granite"}]), ["granite", "unknown material", "ballast"]),
-    (_doc(spheres=[{"pos": [[0, 0, 0]], "radius": -0.01, "material": "ballast"}]), ["radius", "-0.01", "> 0"]),
-    (_doc(walls=[{"axis": "w", "position": 0.0, "material": "ballast"}]), ["axis", "'w'", "x, y, z"]),
-    (_doc(spheres=[{"pos": [[0, 0, 0], [0.015, 0, 0]], "radius": 0.01, "material": "ballast"}]),
-     ["gid 0 and 1", "overlap", "allow_initial_overlap"]),
-])
+@pytest.mark.parametrize(
+    "doc, words",
+    [
+        (_doc(simulation={"dampin": 0.3}), ["simulation.dampin", "unknown key", "damping"]),
+        (_doc(simulation={"damping": 1.5}), ["damping", "1.5", "[0, 0.99]"]),
+        (_doc(simulation={"dt": -1e-6}), ["dt", "-1e-06", "> 0"]),
+        (
+            _doc(materials={"ballast": {"density": 2600.0, "young": -5.0, "poisson": 0.3, "friction_angle": 0.5}}),
+            ["young", "-5.0", "> 0"],
+        ),
+        (_doc(materials={"ballast": {"density": 2600.0, "young": 1e7, "poisson": 0.3}}), ["friction_angle", "missing"]),
+        (
+            _doc(spheres=[{"pos": [[0, 0, 0]], "radius": 0.01, "material": "granite"}]),
+            ["granite", "unknown material", "ballast"],
+        ),
+        (_doc(spheres=[{"pos": [[0, 0, 0]], "radius": -0.01, "material": "ballast"}]), ["radius", "-0.01", "> 0"]),
+        (_doc(walls=[{"axis": "w", "position": 0.0, "material": "ballast"}]), ["axis", "'w'", "x, y, z"]),
+        (
+            _doc(spheres=[{"pos": [[0, 0, 0], [0.015, 0, 0]], "radius": 0.01, "material": "ballast"}]),
+            ["gid 0 and 1", "overlap", "allow_initial_overlap"],
+        ),
+    ],
+)
 def test_one_line_error_names_the_field(doc, words):
     with pytest.raises(pdem.InputError) as exc:
         scene_from_dict(doc).build()
@@ -87,22 +97,33 @@ def test_poisson_zero_on_both_sides_gives_ks_zero_not_a_crash():
     assert len(c["ks"]) == 1 and c["ks"][0] == 0.0 and c["kn"][0] > 0.0
     assert np.all(c["shear_force"] == 0.0) and np.all(np.isfinite(sim.particles.vel))
 
-@pytest.mark.parametrize("changes, words", [
-    ({"simulation": [1, 2]}, ["simulation", "must be a table"]),
-    ({"walls": 5}, ["walls", "array of tables"]),
-    ({"walls": [{"axis": "z", "position": 0.0, "material": "ballast", "sense": True}]}, ["sense", "True"]),
-    ({"walls": [{"axis": "z", "position": True, "material": "ballast"}]}, ["position", "True"]),
-    ({"simulation": {"dt": True}}, ["dt", "True"]),
-    ({"simulation": {"energy_check": "no"}}, ["energy_check", "'no'", "true or false"]),
-    ({"simulation": {"allow_initial_overlap": "false"}}, ["allow_initial_overlap", "'false'"]),
-    ({"simulation": {"domain": [[0, 0, 0], [1, 1]]}}, ["domain"]),
-    ({"spheres": [{"pos": [[0.0, 0.0]], "radius": 0.01, "material": "ballast"}]}, ["spheres.pos", "shape (1, 2)"]),
-    ({"spheres": [{"pos": [[0, 0, 0], [0.1, 0, 0]], "radius": [0.01] * 3, "material": "ballast"}]}, ["radius", "2 numbers"]),
-    ({"spheres": [{"pos": [[0.0, "a", 0.0]], "radius": 0.01, "material": "ballast"}]}, ["spheres.pos", "'a'"]),
-    ({"spheres": [{"pos": [[0, 0, 0]], "radius": 0.01, "material": "ballast", "fixed": "false"}]}, ["fixed", "'false'"]),
-    ({"materials": {"ballast": {"density": 2600.0, "young": True, "poisson": 0.3, "friction_angle": 0.5}}},
-     ["young", "True"]),
-])
+@pytest.mark.parametrize(
+    "changes, words",
+    [
+        ({"simulation": [1, 2]}, ["simulation", "must be a table"]),
+        ({"walls": 5}, ["walls", "array of tables"]),
+        ({"walls": [{"axis": "z", "position": 0.0, "material": "ballast", "sense": True}]}, ["sense", "True"]),
+        ({"walls": [{"axis": "z", "position": True, "material": "ballast"}]}, ["position", "True"]),
+        ({"simulation": {"dt": True}}, ["dt", "True"]),
+        ({"simulation": {"energy_check": "no"}}, ["energy_check", "'no'", "true or false"]),
+        ({"simulation": {"allow_initial_overlap": "false"}}, ["allow_initial_overlap", "'false'"]),
+        ({"simulation": {"domain": [[0, 0, 0], [1, 1]]}}, ["domain"]),
+        ({"spheres": [{"pos": [[0.0, 0.0]], "radius": 0.01, "material": "ballast"}]}, ["spheres.pos", "shape (1, 2)"]),
+        (
+            {"spheres": [{"pos": [[0, 0, 0], [0.1, 0, 0]], "radius": [0.01] * 3, "material": "ballast"}]},
+            ["radius", "2 numbers"],
+        ),
+        ({"spheres": [{"pos": [[0.0, "a", 0.0]], "radius": 0.01, "material": "ballast"}]}, ["spheres.pos", "'a'"]),
+        (
+            {"spheres": [{"pos": [[0, 0, 0]], "radius": 0.01, "material": "ballast", "fixed": "false"}]},
+            ["fixed", "'false'"],
+        ),
+        (
+            {"materials": {"ballast": {"density": 2600.0, "young": True, "poisson": 0.3, "friction_angle": 0.5}}},
+            ["young", "True"],
+        ),
+    ],
+)
 def test_strict_types_one_line(changes, words):
     """Numbers are numbers (not booleans), booleans are booleans (not strings), shapes are checked."""
     with pytest.raises(pdem.InputError) as exc:

@@ -51,7 +51,9 @@ def test_boundaries_by_name_and_facet_from_centre():
     sc, m, _ = scene()
     sim = sc.build()
     assert sim.wall_index("floor") == 0 and sim.facet_index("tile") == 0
-    np.testing.assert_allclose(sim.facets.vertices[0], [(0.0, 0.2, 0.0), (0.1, 0.2, 0.0), (0.0, 0.3, 0.0)], rtol=0, atol=1e-16)
+    np.testing.assert_allclose(
+        sim.facets.vertices[0], [(0.0, 0.2, 0.0), (0.1, 0.2, 0.0), (0.0, 0.3, 0.0)], rtol=0, atol=1e-16
+    )
     with pytest.raises(KeyError, match="no wall called 'roof'"):
         sim.wall_index("roof")
 

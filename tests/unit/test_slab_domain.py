@@ -80,7 +80,9 @@ def small_scene():
     pos = (g + 0.5) * 0.016 + rng.uniform(-5e-4, 5e-4, (len(g), 3))
     scene = Scene(dt="auto", damping=0.3, gravity=(0.0, 0.0, -9.81))
     m = scene.material(density=2700.0, young=1e7, poisson=0.3, friction_angle=0.5)
-    scene.add_spheres(pos, 0.005 * rng.uniform(0.6, 1.4, len(g)), m, vel=np.c_[rng.uniform(-1, 1, len(g)), 0 * g[:, :2]])
+    scene.add_spheres(
+        pos, 0.005 * rng.uniform(0.6, 1.4, len(g)), m, vel=np.c_[rng.uniform(-1, 1, len(g)), 0 * g[:, :2]]
+    )
     scene.add_wall(2, 0.0, m)
     scene.add_wall(0, 0.0, m)
     scene.add_wall(0, 0.096, m)

@@ -144,10 +144,13 @@ def test_pack_settle_against_liggghts():
     z, z_ref = p.pos[o, 2], np.array(last["atoms"]["pos"])[:, 2]
     floor = -sim.kind("sphere_wall").totals(sim.comm)[0]
     n_pairs = len(sim.contacts()["gid1"])
-    print(f"\npack_settle: max |dx| at steps 0, 1000, ... 10000: {' '.join(f'{x:.1e}' for x in early)} m; final mean z {z.mean():.6f} vs "
-          f"{z_ref.mean():.6f} m, max |dz| {np.abs(z - z_ref).max():.2e} m; floor force z {floor[2]:.5f} vs "
-          f"{last['floor_force_on_particles'][2]:.5f} N; pair contacts {n_pairs} vs {last['n_pair_contacts']}; "
-          f"KE at 4000 {ke[4]:.3e} vs {ke_ref[4]:.3e} J, at the end {ke[-1]:.2e} vs {ke_ref[-1]:.2e} J")
+    print(
+        f"\npack_settle: max |dx| at steps 0, 1000, ... 10000: {' '.join(f'{x:.1e}' for x in early)} m; final "
+        f"mean z {z.mean():.6f} vs "
+        f"{z_ref.mean():.6f} m, max |dz| {np.abs(z - z_ref).max():.2e} m; floor force z {floor[2]:.5f} vs "
+        f"{last['floor_force_on_particles'][2]:.5f} N; pair contacts {n_pairs} vs {last['n_pair_contacts']}; "
+        f"KE at 4000 {ke[4]:.3e} vs {ke_ref[4]:.3e} J, at the end {ke[-1]:.2e} vs {ke_ref[-1]:.2e} J"
+    )
     assert max(early[:4]) < 1e-12  # up to step 3000: the first collisions with the floor and each other
     # the settled beds: LIGGGHTS against itself (1 ulp, 2 ranks) ends 2e-6 m apart with KE within 1.4 %
     assert ke[4] == pytest.approx(ke_ref[4], rel=1e-3)

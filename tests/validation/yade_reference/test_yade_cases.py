@@ -87,7 +87,12 @@ def test_sphere_mass_inertia_bitwise():
             if b["kind"] == "sphere":
                 g = gid_of[b["id"]]
                 assert cols["mass"][g] == b["mass"], (case, b["id"], float(cols["mass"][g]), b["mass"])
-                assert cols["inertia"][g] == b["inertia"][0], (case, b["id"], float(cols["inertia"][g]), b["inertia"][0])
+                assert cols["inertia"][g] == b["inertia"][0], (
+                    case,
+                    b["id"],
+                    float(cols["inertia"][g]),
+                    b["inertia"][0],
+                )
 
 
 @pytest.mark.parametrize("case", SINGLE)
@@ -164,7 +169,9 @@ def test_pack_settle():
         assert abs(n_pdem - n_yade) <= max(3, 0.15 * n_yade), (it, n_pdem, n_yade)
         if it == d["records"][-1]["iter"]:
             # settled bed: same total weight carried by the floor (z wall, id 44) to 10 %
-            fz_p = sum(c["force_on_2"][2] for (a, b), c in yade_json.real_contacts(sim, gid_of, other).items() if a == 44)
+            fz_p = sum(
+                c["force_on_2"][2] for (a, b), c in yade_json.real_contacts(sim, gid_of, other).items() if a == 44
+            )
             fz_y = sum(I["normalForce"][2] + I["shearForce"][2] for I in rec["interactions"] if I["id1"] == 44)
             assert abs(fz_p - fz_y) <= 0.1 * abs(fz_y), (fz_p, fz_y)
     assert exact_records >= 10
