@@ -323,8 +323,9 @@ def judge_member(campaign, member, tolerance=TOLERANCE, expected=None):
         if not b["ok"]:
             v.verdict = "FAILED"
             v.line = (f"FAILED: ran to the end, but the mechanical energy rose by {_pct(b['rise_ratio'])} of the "
-                      f"largest kinetic+elastic energy (more than the tolerance {100 * tolerance:g} %) without "
-                      f"external work, at step {b['rise_step']}: an instability pdem did not stop"
+                      f"largest kinetic+elastic energy (more than the tolerance {100 * tolerance:g} %) "
+                      f"{'beyond the external work' if b['work'] else 'without external work'}, at step "
+                      f"{b['rise_step']}: an instability pdem did not stop"
                       if b.get("checked") else f"FAILED: ran to the end, but {b['reason']}")
         else:
             v.verdict = "stable"

@@ -125,8 +125,9 @@ def dt_cause(sim, cause):
 
         stable = stable_dt(sim)
         if np.isfinite(stable) and sim.dt > stable:
-            return (f"{text}: the time step fixed by simulation.dt is {sim.dt / stable:.3g} times the stable step "
-                    f"{stable:.3e} s of the stiffnesses present; lower it or use dt = \"auto\"")
+            return (f"{text}: the time step fixed by simulation.dt is {sim.dt / stable:.3g} times the one dt = "
+                    f"\"auto\" takes here ({stable:.3e} s): too large for the stiffnesses present; lower it or use "
+                    "dt = \"auto\"")
     return f"{text}: {cause}"
 
 
