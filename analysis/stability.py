@@ -316,6 +316,9 @@ def judge_member(campaign, member, tolerance=TOLERANCE, expected=None):
         v.line = ("incomplete: stopped on a signal (exit 3) at step " + (str(v.steps) if v.steps is not None else "?")
                   + "; run the campaign again to finish it") if v.exit == 3 else \
             "incomplete: running, or interrupted (no exit status recorded); run the campaign again to finish it"
+        if series:  # what the recorded part shows
+            v.energy = energy_balance(series, attrs, tolerance)
+            v.line += f" (so far: {_balance_text(v.energy)}" + (f"; {facts}" if facts else "") + ")"
     elif v.exit == 0:
         b = energy_balance(series, attrs, tolerance) if series else {"checked": False, "ok": False,
                                                                     "reason": "no results.h5 with a /series"}
