@@ -1,6 +1,7 @@
 """Command line: ``python -m analysis box RESULTS.h5 [--out DIR]``; also ``grading``, ``blast``,
-``track`` (each defined by its module's ``add_parser``), ``campaign DIR`` (`analysis.campaign`)
-and ``error-vs-runtime DIR`` (`analysis.error_vs_runtime`).
+``track`` (each defined by its module's ``add_parser``), ``campaign DIR`` (`analysis.campaign`),
+``error-vs-runtime DIR`` (`analysis.error_vs_runtime`) and ``stability DIR [DIR ...]``
+(`analysis.stability`: exit status 1 when the stability map fails or is not finished).
 
 This module owns the CLI only: argument parsing, the output directory and exit status. Bad
 input (not a pdem result, no complete cycle, unwritable output) exits with status 2 and one
@@ -50,10 +51,11 @@ def build_parser() -> argparse.ArgumentParser:
                                        "stiffness (default: %(default)s)")
     for module in (grading, blast, track):
         module.add_parser(sub)
-    from . import campaign, error_vs_runtime
+    from . import campaign, error_vs_runtime, stability
 
     campaign.add_parser(sub)
     error_vs_runtime.add_parser(sub)
+    stability.add_parser(sub)
     return parser
 
 
@@ -82,7 +84,7 @@ def main(argv=None) -> int:
     if args.command is None:
         parser.print_help(sys.stderr)
         return EXIT_BAD_INPUT
-    if args.command in ("campaign", "error-vs-runtime"):
+    if args.command in ("campaign", "error-vs-runtime", "stability"):
         return _run_campaign(args)
     try:
         if hasattr(args, "run"):
@@ -100,18 +102,24 @@ def main(argv=None) -> int:
 
 
 def _run_campaign(args) -> int:
-    from . import campaign, error_vs_runtime
+    from . import campaign, error_vs_runtime, stability
 
-    module = campaign if args.command == "campaign" else error_vs_runtime
+    module = {"campaign": campaign, "error-vs-runtime": error_vs_runtime, "stability": stability}[args.command]
     try:
         written = module.run(args)
     except (campaign.CampaignError, ResultFileError) as err:
         return _fail(str(err))
     except (ValueError, OSError) as err:
-        return _fail(f"{args.dir}: {_one_line(err)}")
+        where = " ".join(map(str, args.dirs)) if hasattr(args, "dirs") else args.dir
+        return _fail(f"{where}: {_one_line(err)}")
+    status = 0
+    if args.command == "stability":  # (files, passed): the map's verdict is the exit status
+        written, passed = written
+        print((Path(written[0])).read_text().splitlines()[0])
+        status = 0 if passed else 1
     for path in written:
         print(path)
-    return 0
+    return status
 
 
 def _fail(message: str) -> int:

@@ -8,7 +8,9 @@ Layout
 ------
 root attributes
     ``schema`` = "pdem-results", ``schema_version`` = 1, ``scene`` (JSON text),
-    ``pdem_version`` (text), ``kind`` (text, e.g. "box_test", "deposition").
+    ``pdem_version`` (text), ``kind`` (text, e.g. "box_test", "deposition"); optional
+    ``external_work`` (int 0/1, written by plain scene runs: 1 if a boundary moves or a load
+    acts, so the mechanical energy of /series may grow; 0: it can only fall).
 ``/series``
     1-D float64 datasets of equal length (one entry per output sample), each with a ``units``
     attribute. Always ``time`` [s] and ``step`` [-]; the box test adds ``sleeper_load`` [N]
@@ -115,10 +117,14 @@ CYCLE_UNITS = {
 CYCLE_OPTIONAL_UNITS = {"load_max": "N", "load_min": "N", "step": "-"}
 
 # What pdem's runs write (pdem's driver imports these; the engine never imports analysis):
+# a plain run's energies are those of `pdem.diagnostics.energy`: kinetic_energy is translational +
+# rotational, potential_energy = -sum m g.x (zero at the origin), total_energy = kinetic +
+# potential + elastic; max_overlap_ratio is the largest overlap over the smaller radius [-].
 # /series of a plain scene run (kind "scene"), the box test's load record (kind "box_test"),
 # its preparation record (preparation.h5, kind "preparation") and the /cycles table.
 RUN_SERIES = {"step": "-", "time": "s", "dt": "s", "kinetic_energy": "J", "elastic_energy": "J",
-              "contacts_per_particle": "-", "unbalanced_force": "-", "bed_top": "m", "floor_force_z": "N"}
+              "contacts_per_particle": "-", "unbalanced_force": "-", "bed_top": "m", "floor_force_z": "N",
+              "potential_energy": "J", "total_energy": "J", "max_overlap_ratio": "-"}
 BOX_TEST_SERIES = {"step": "-", "time": "s", "dt": "s", "sleeper_load": "N", "sleeper_force": "N",
                    "sleeper_settlement": "m", "kinetic_energy": "J", "contacts_per_particle": "-"}
 PREPARATION_SERIES = {"step": "-", "time": "s", "stage": "-", "n_spheres": "-", "kinetic_energy": "J",

@@ -1,7 +1,8 @@
 """What a running simulation can tell about itself, and the blow-up check.
 
 - `energy`: mechanical energy [J] of the owned free bodies and the contacts (kinetic,
-  rotational, gravitational potential −m g·x, elastic from the law), as exact global sums.
+  rotational, gravitational potential −m g·x, elastic from the law, and their total synchronised
+  to the positions), as exact global sums.
 - `contacts_per_particle`, `max_overlap_ratio`: real contacts per body; the largest overlap over
   the smaller radius of the pair [-].
 - `check_stability`: stop with `InstabilityError` naming the cause if the state is not finite,
@@ -30,17 +31,29 @@ def contacts_per_particle(sim):
 
 
 def energy(sim):
-    """Mechanical energy [J]: kinetic, rotational, potential, elastic and their total."""
+    """Mechanical energy [J] at x_n, the positions of the last force computation: kinetic and
+    rotational ½ m v² and ½ I ω² of the velocities after the step (v_{n+1/2}), potential −m g·x_n,
+    elastic from the law, and ``total``, synchronised to x_n.
+
+    The leapfrog's velocities live half a step after its positions, so K(v_{n+1/2}) + U(x_n) is
+    off by about (h/2) F·v, which swings with every hard contact. ``total`` instead takes for
+    the kinetic part ½ m v_{n−1/2}·v_{n+1/2} = ½ m v_{n+1/2}² − (h/2) m a_n·v_{n+1/2} (a_n the
+    last step's acceleration as the integrator formed it, h its Δt; the same for spins), the
+    quantity the leapfrog conserves exactly under linear forces (its "shadow" energy), so that
+    a growth of ``total`` is an instability, not the half-step offset. Before the first step
+    (h unknown) the state is taken as it is, without correction."""
     p = sim.particles
     nl = p.n_local
     free = p.blocked[:nl] != DOF_ALL
     m = p.mass[:nl][free]
     v = p.vel[:nl][free]
     w = p.angvel[:nl][free]
+    inertia = p.inertia[:nl][free]
+    h = sim.last_dt or 0.0
     ke = 0.5 * m * np.einsum("ij,ij->i", v, v)
-    kr = 0.5 * p.inertia[:nl][free] * np.einsum("ij,ij->i", w, w)
+    kr = 0.5 * inertia * np.einsum("ij,ij->i", w, w)
     # potential energy at the positions the overlaps were computed from (start of the step)
-    x_start = p.pos[:nl][free] - v * sim.dt
+    x_start = p.pos[:nl][free] - v * h
     pe = -m * (x_start @ sim.gravity)
     el = []
     for kind in sim.kinds:
@@ -48,10 +61,26 @@ def energy(sim):
         rows = kind.owned_rows(nl)
         el.append(sim.law.elastic_energy(c.params[rows], c.history[rows], c.overlap[rows]))
     el = np.concatenate(el) if el else np.zeros(0)
+    sync = np.zeros(len(m))
+    if h > 0.0:
+        blocked = p.blocked[:nl][free]
+        a = _step_acceleration(p.force[:nl][free] / m[:, None] + sim.gravity, v, blocked, 0, sim.damping, h)
+        alpha = _step_acceleration(p.torque[:nl][free] / inertia[:, None], w, blocked, 3, sim.damping, h)
+        sync = -0.5 * h * (m * np.einsum("ij,ij->i", a, v) + inertia * np.einsum("ij,ij->i", alpha, w))
     s = sim.comm.exact_sum
     out = {"kinetic": s(ke), "rotational": s(kr), "potential": s(pe), "elastic": s(el)}
-    out["total"] = out["kinetic"] + out["rotational"] + out["potential"] + out["elastic"]
+    out["total"] = s(np.concatenate([ke, kr, pe, el, sync]))
     return out
+
+
+def _step_acceleration(a, v, blocked, shift, damping, h):
+    """The acceleration the integrator applied in the last step (`pdem.integrator`): a = F/m + g
+    (``a`` given), blocked components 0, Cundall's damping with the mid-step velocity estimated
+    from the velocity after the step."""
+    a = np.where((blocked[:, None] >> (np.arange(3) + shift)) & 1, 0.0, a)
+    if damping > 0.0:
+        a = a * (1.0 - damping * np.sign(a * (v - 0.5 * h * a)))
+    return a
 
 
 def max_overlap_ratio(sim):
@@ -86,9 +115,25 @@ def worst_overlap(sim):
     return agree(sim.comm, ratio, f"overlap {ratio:.3g} of the smaller radius between body gid {gi} and {other}")
 
 
-def check_stability(sim):
-    """Raise `InstabilityError` (one line: step, cause, body, Δt; the same on every rank) if the
-    run has blown up or lost bodies (`pdem.guard.Guard.check_domain`)."""
+def dt_cause(sim, cause):
+    """"(dt = X s): CAUSE" closing an instability message; for a fixed Δt (``simulation.dt``)
+    above the step dt = "auto" would take in this state, that is named as the cause instead
+    (collective: every rank calls it with the same state and gets the same text)."""
+    text = f"(dt = {sim.dt:.3e} s)"
+    if sim.fixed_dt is not None:
+        from .timestep import stable_dt
+
+        stable = stable_dt(sim)
+        if np.isfinite(stable) and sim.dt > stable:
+            return (f"{text}: the time step fixed by simulation.dt is {sim.dt / stable:.3g} times the one dt = "
+                    f"\"auto\" takes here ({stable:.3e} s): too large for the stiffnesses present; lower it or use "
+                    "dt = \"auto\"")
+    return f"{text}: {cause}"
+
+
+def check_finite(sim):
+    """Raise `InstabilityError` naming the body (lowest gid) if a position or velocity is not
+    finite (collective)."""
     p = sim.particles
     nl = p.n_local
     bad = ~np.isfinite(p.pos[:nl]).all(axis=1) | ~np.isfinite(p.vel[:nl]).all(axis=1)
@@ -98,13 +143,19 @@ def check_stability(sim):
         raise InstabilityError(
             f"step {sim.step}: non-finite position or velocity of body gid {gid} (dt = {sim.dt:.3e} s): "
             "the time step is too large for the stiffness, or an input is not finite")
+
+
+def check_stability(sim):
+    """Raise `InstabilityError` (one line: step, cause, body, Δt; the same on every rank) if the
+    run has blown up or lost bodies (`pdem.guard.Guard.check_domain`)."""
+    check_finite(sim)
     sim.guard.check_domain(sim)
     ratio, _, _ = max_overlap_ratio(sim)
     worst = sim.comm.allreduce_max(ratio)
     if worst > sim.max_overlap_ratio:
         raise InstabilityError(
-            f"step {sim.step}: {worst_overlap(sim)} exceeds max_overlap_ratio = "
-            f"{sim.max_overlap_ratio} (dt = {sim.dt:.3e} s): time step too large or load too high for the stiffness")
+            f"step {sim.step}: {worst_overlap(sim)} exceeds max_overlap_ratio = {sim.max_overlap_ratio} "
+            + dt_cause(sim, "time step too large or load too high for the stiffness"))
     if sim.energy_check and not sim.moving_boundaries:
         e = energy(sim)
         scale = e["kinetic"] + e["rotational"] + e["elastic"]
@@ -117,7 +168,8 @@ def check_stability(sim):
         if growth > tolerance:
             raise InstabilityError(
                 f"step {sim.step}: mechanical energy grew by {growth:.3e} J without external work "
-                f"(kinetic+elastic {scale:.3e} J, before {ref[1]:.3e} J; dt = {sim.dt:.3e} s): numerical "
-                "instability, the time step exceeds the critical value for the contact stiffness")
+                f"(kinetic+elastic {scale:.3e} J, before {ref[1]:.3e} J) "
+                + dt_cause(sim, "numerical instability, the time step exceeds the critical value for the contact "
+                                "stiffness"))
         ref[0] = min(ref[0], e["total"])  # dissipation lowers the reference, nothing raises it
         ref[1] = max(ref[1], scale)

@@ -32,7 +32,7 @@ from numba import njit
 from . import vec
 from .contact import geometry as geometry_module
 from .contact.geometry import CONTACT
-from .diagnostics import agree, worst_overlap
+from .diagnostics import agree, check_finite, dt_cause, worst_overlap
 from .errors import InstabilityError
 from .kernels import specialize
 
@@ -64,7 +64,9 @@ class Guard:
     def check_step(self, sim, step_ratio, overlap_ratio):
         """Stop if a body moved more than STEP_FRACTION of its radius in the last step or an
         overlap passed max_overlap_ratio (both already reduced over the ranks)."""
-        if step_ratio > STEP_FRACTION:
+        if not step_ratio <= STEP_FRACTION:
+            if not np.isfinite(step_ratio):  # max_motion reports a NaN or inf as inf
+                check_finite(sim)
             p = sim.particles
             nl = p.n_local
             speed = np.linalg.norm(p.vel[:nl], axis=1) if nl else np.zeros(0)
@@ -73,15 +75,18 @@ class Guard:
             what = (f"body gid {int(p.gid[k])} at {_xyz(p.pos[k])} m moves {ratio[k]:.3g} of its radius per step "
                     f"(|v| = {speed[k]:.4g} m/s, r = {p.radius[k]:.4g} m)") if nl else ""
             what = agree(sim.comm, ratio[k] if nl else -1.0, what)
+            cause = ("the initial velocity is too high for the time step" if sim.step == 0 else
+                     "numerical instability or a speed too high for the time step")
             raise InstabilityError(
-                f"step {sim.step}: {what}, more than {STEP_FRACTION} (dt = {sim.dt:.3e} s): a contact this fast "
-                "is crossed before the contact law can stop it (tunnelling): numerical instability or a speed too "
-                "high for the time step; lower dt or the speed")
+                f"step {sim.step}: {what}, more than {STEP_FRACTION} "
+                + dt_cause(sim, f"a contact this fast is crossed before the contact law can stop it (tunnelling): "
+                                f"{cause}; lower dt or the speed"))
         if overlap_ratio > sim.max_overlap_ratio:
             raise InstabilityError(f"step {sim.step}: {worst_overlap(sim)} exceeds max_overlap_ratio = "
-                                   f"{sim.max_overlap_ratio} (dt = {sim.dt:.3e} s): numerical instability (the time "
-                                   "step exceeds the critical value for the contact stiffness) or a load or "
-                                   "speed too high for the stiffness")
+                                   f"{sim.max_overlap_ratio} "
+                                   + dt_cause(sim, "numerical instability (the time step exceeds the critical value "
+                                                   "for the contact stiffness) or a load or speed too high for the "
+                                                   "stiffness"))
 
     # ------------------------------------------------------------------ every check_interval steps
     def check_domain(self, sim):
@@ -107,8 +112,9 @@ class Guard:
                         f"{self.box[1].tolist()} m")
         if sim.comm.any_flag(bool(what)):
             what = agree(sim.comm, 1.0 if what else -1.0, what)
-            raise InstabilityError(f"step {sim.step}: {what} (dt = {sim.dt:.3e} s): the run has lost bodies; "
-                                   "a time step too large, a speed or load too high for the stiffness")
+            raise InstabilityError(f"step {sim.step}: {what} "
+                                   + dt_cause(sim, "the run has lost bodies; a time step too large, a speed or load "
+                                                   "too high for the stiffness"))
 
 
 def _name(name):

@@ -287,16 +287,22 @@ def build_facet_candidates(pos, radius, n_local, skin, facet_geom, facet_vertice
 @kernel(size_arg=4)
 def max_motion(pos, pos_at_rebuild, vel, radius, n):
     """(largest distance a body moved since the last rebuild [m], largest |v|/r [1/s]): the
-    rebuild test and the runaway guard's step displacement |v|·Δt/r in one pass."""
+    rebuild test and the runaway guard's step displacement |v|·Δt/r in one pass. A non-finite
+    position or velocity gives |v|/r = inf (the guard then names the body), never a NaN that a
+    max would silently drop."""
     m = 0.0
     w = 0.0
     for k in prange(n):
         dx = pos[k, 0] - pos_at_rebuild[k, 0]
         dy = pos[k, 1] - pos_at_rebuild[k, 1]
         dz = pos[k, 2] - pos_at_rebuild[k, 2]
-        m = max(m, dx * dx + dy * dy + dz * dz)
+        d2 = dx * dx + dy * dy + dz * dz
         v2 = vel[k, 0] * vel[k, 0] + vel[k, 1] * vel[k, 1] + vel[k, 2] * vel[k, 2]
-        w = max(w, v2 / (radius[k] * radius[k]))
+        q = v2 / (radius[k] * radius[k])
+        if not (q < np.inf and d2 < np.inf):  # NaN or inf: max() would drop a NaN; report it as infinitely fast
+            q = np.inf
+        m = max(m, d2)
+        w = max(w, q)
     return sqrt(m), sqrt(w)
 
 

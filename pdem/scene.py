@@ -262,6 +262,21 @@ class Scene:
                     "move them apart or set allow_initial_overlap = true"
                 )
 
+    def _check_coincident_centres(self, cols):
+        """Overlaps allowed, but two spheres on one centre have no contact normal (0/0): refused."""
+        from .neighbors import build_sphere_pairs
+
+        pos, r, gid = cols["pos"], cols["radius"], cols["gid"]
+        n = len(gid)
+        if n < 2:
+            return
+        pi_, pj = build_sphere_pairs(pos, r, gid, n, n, 0.0, 2.0 * r.max(), 8 * n + 1000)
+        same = np.flatnonzero(np.all(pos[pi_] == pos[pj], axis=1))
+        if len(same):
+            k = int(same[0])
+            raise InputError(f"spheres: bodies gid {gid[pi_[k]]} and {gid[pj[k]]} have the same centre "
+                             f"{pos[pi_[k]].tolist()} m (a repeated row?): no contact normal exists between them")
+
     def build(self, comm=None, domain=None):
         """Create the `Simulation` (on `comm`'s ranks; default one rank)."""
         if len(self.materials) == 0:
@@ -269,6 +284,8 @@ class Scene:
         cols = self.spheres()
         if not self.settings["allow_initial_overlap"]:
             self._check_initial_overlaps(cols)
+        else:
+            self._check_coincident_centres(cols)
         s = self.settings
         skin = s["skin"] if s["skin"] is not None else 0.25 * float(np.mean(cols["radius"]))
         if domain is None:

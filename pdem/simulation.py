@@ -78,6 +78,7 @@ class Simulation:
         self.boundary_moved = 0.0
         self.timers = Timers()
         self.energy_reference = None
+        self.last_dt = None  # Δt of the last step taken (sim.dt may already be the next one's) [s]
         self.kinds = make_kinds(law, walls, facets, boxes)
         # a box's load and weight do external work; the flag must be the same on every rank
         self.moving_boundaries = bool(self.comm.any_flag(bool(
@@ -166,6 +167,7 @@ class Simulation:
         self.integrate()
         self.step += 1
         self.time += self.dt
+        self.last_dt = self.dt
         t0 = timers.add("integration", t0)
         self.domain.update_ghosts(self.particles)
         t0 = timers.add("communication", t0)

@@ -113,6 +113,13 @@ def update_dt(sim, force=False):
         return
     if not force and sim.step % sim.dt_interval:
         return
+    sim.dt = stable_dt(sim)
+
+
+def stable_dt(sim):
+    """The Δt that dt = "auto" takes in the present state [s] (collective): min(safety·Δt_k, Δt_p),
+    or pwave_factor·Δt_p before any contact. Also names how far a fixed Δt is above it when a
+    run with one blows up (`pdem.diagnostics.dt_text`)."""
     p = sim.particles
     k_dt = contact_dt(sim)
     boxes = sim.kind("sphere_box")
@@ -124,4 +131,4 @@ def update_dt(sim, force=False):
     pw = sim.comm.allreduce_min(pwave_dt(nl, p.radius, p.mass, young))
     # never above the P-wave step itself: a body whose few contacts allow a long step can
     # gain many more within dt_interval steps (a sphere landing on a bed)
-    sim.dt = min(sim.dt_safety * k_dt, pw) if np.isfinite(k_dt) else sim.pwave_factor * pw
+    return min(sim.dt_safety * k_dt, pw) if np.isfinite(k_dt) else sim.pwave_factor * pw

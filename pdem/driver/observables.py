@@ -5,10 +5,12 @@ the rank count (exact sums, max/min reductions).
   magnitude (Yade's ``unbalancedForce``) [-]
 - wall forces: total force of the spheres on each wall [N] (exact sums over contacts)
 - top of the bed: max over spheres of z + r [m]
+- the largest overlap of any real contact over the smaller radius of its pair [-]
 - rigid boxes: force of the spheres on each box [N] (exact sums) and centre [m]
 """
 import numpy as np
 
+from ..diagnostics import max_overlap_ratio as _max_overlap_ratio
 from ..state import DOF_ALL
 
 
@@ -42,6 +44,11 @@ def bed_top(sim):
     nl = p.n_local
     local = float(np.max(p.pos[:nl, 2] + p.radius[:nl])) if nl else -np.inf
     return sim.comm.allreduce_max(local)
+
+
+def max_overlap_ratio(sim):
+    """The largest overlap / smaller radius over every contact of every rank [-] (0 without contacts)."""
+    return sim.comm.allreduce_max(_max_overlap_ratio(sim)[0])
 
 
 def box_forces(sim):

@@ -1,8 +1,9 @@
 """A plain run of a scene file: the scene as declared, for run.steps steps, with output.
 
 `run_scene_file(path, out_dir)` runs on every rank. It writes to `out_dir`: ``results.h5``
-(`analysis.schema`, kind from run.kind: /series of time, energies, contacts, unbalanced force,
-floor force), ``snapshots.h5``/``.xmf`` if the scene asks, checkpoints in ``checkpoints/``
+(`analysis.schema`, kind from run.kind: /series of time, energies (kinetic, elastic,
+potential, their total), contacts, the largest overlap, unbalanced force, floor force; root
+attribute ``external_work``), ``snapshots.h5``/``.xmf`` if the scene asks, checkpoints in ``checkpoints/``
 (`pdem.driver.runloop.RunLoop`; always one at the end), ``results.png`` and ``summary.txt``
 with the timing table. Started again on the same directory, a run resumes from the newest
 valid checkpoint and appends to its results; ``fresh`` removes the old checkpoints first.
@@ -14,11 +15,12 @@ from analysis.schema import RUN_SERIES
 
 from ..version import __version__
 from ..config import run_settings, scene_from_dict
+from ..diagnostics import check_finite
 from ..io.checkpoint import CheckpointError, read_checkpoint
 from ..io.snapshots import SnapshotWriter
 from . import observables
 from .plots import plot_series
-from .results import series_writer, write_root_attrs
+from .results import finite_row, series_writer, write_root_attrs
 from .runloop import RunLoop, prepare_output, resume_point
 
 
@@ -28,7 +30,8 @@ def sample(sim):
     return {"step": sim.step, "time": sim.time, "dt": sim.dt, "kinetic_energy": e["kinetic"] + e["rotational"],
             "elastic_energy": e["elastic"], "contacts_per_particle": sim.contacts_per_particle(),
             "unbalanced_force": observables.unbalanced_force(sim), "bed_top": observables.bed_top(sim),
-            "floor_force_z": float(wf[0, 2]) if len(wf) else 0.0}
+            "floor_force_z": float(wf[0, 2]) if len(wf) else 0.0, "potential_energy": e["potential"],
+            "total_energy": e["total"], "max_overlap_ratio": observables.max_overlap_ratio(sim)}
 
 
 def run_scene_file(path, doc, out_dir, comm, steps=None, fresh=False):
@@ -65,15 +68,16 @@ def run_scene_file(path, doc, out_dir, comm, steps=None, fresh=False):
     series = series_writer(results, RUN_SERIES, comm, restart_step=sim.step if resumed else None)
     loop.flush.append(series)
     if comm.rank == 0:
-        write_root_attrs(results, sim.spec, run["kind"])
+        write_root_attrs(results, sim.spec, run["kind"], external_work=sim.moving_boundaries)
     snaps = (SnapshotWriter(out, comm=comm, append=resumed, restart_step=sim.step if resumed else None,
                             log=lambda m: print(m, flush=True))
              if run["snapshot_every"] else None)
 
     def on_step(sim):
         if run["output_every"] and sim.step % run["output_every"] == 0:
-            series.append(sample(sim))
+            series.append(finite_row(sample(sim), sim))
         if snaps and sim.step % run["snapshot_every"] == 0:
+            check_finite(sim)
             write_snapshot(snaps, sim)
 
     if not resumed:

@@ -12,7 +12,8 @@ import sys
 import time as _time
 from pathlib import Path
 
-from ..errors import InputError
+from ..diagnostics import check_finite
+from ..errors import InputError, InstabilityError
 from ..io.checkpoint import (
     CheckpointError,
     find_resume_checkpoint,
@@ -106,6 +107,7 @@ class RunLoop:
 
     def checkpoint(self, sim, why):
         t0 = _time.perf_counter()
+        check_finite(sim)  # a checkpoint never holds a NaN: the run stops naming the body instead
         for w in self.flush:
             w.flush()
         tables, meta = sim.checkpoint_tables()
@@ -131,8 +133,18 @@ class RunLoop:
         progress = Progress(comm, run["progress_every"])
         try:
             return self._advance(sim, n_steps, on_step, until, until_every, last_step, step0, wall0, n_total, progress)
+        except InstabilityError:
+            self._flush_quietly()  # the rows before the stop show how it came (all finite: FiniteSeriesWriter)
+            raise
         finally:
             progress.close()
+
+    def _flush_quietly(self):
+        for w in self.flush:
+            try:
+                w.flush()
+            except (OSError, RuntimeError):  # the instability is what the run reports
+                pass
 
     def _advance(self, sim, n_steps, on_step, until, until_every, last_step, step0, wall0, n_total, progress):
         run, comm = self.run, self.comm
