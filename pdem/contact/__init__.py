@@ -11,6 +11,14 @@ overlap) -> (kn, ks)`` (time step), ``elastic_energy(params, history, overlap)``
 ``contact_forces(params, history, overlap, normal) -> (normal force, shear force)`` and
 ``PARAM_NAMES`` (name -> parameter column) for `Simulation.contacts`, and, with a friction key, ``set_friction(n, mat_i, mat_j, props, params)``.
 
+Optional (a law without them behaves as if they were absent/False): ``TENSILE`` and the
+njit-inline ``holds(p, fresh, pen, params, history)`` (real contacts with negative overlap live
+on while ``holds``; see `pdem.contact.loops`), ``CONTACT_POINT_LEVER`` (torques about the
+contact point), ``HISTORY_NAMES`` (name -> history column, also reported by
+`Simulation.contacts`) and, for laws with bonds, ``bond_rows(props, mat1, mat2, r1, r2, pen,
+stress_free) -> (params, history)``, ``bond_strengths(props, mat) -> (c_N, c_T)`` and
+``intact(params, history) -> bool mask`` (`pdem.bonds`, `pdem.fragments`).
+
 A new law is its own module plus one line in `LAWS` (or `register_law(module)` at run time, as
 tests/unit/test_law_plugin.py does). Importing this package compiles nothing.
 """
@@ -19,7 +27,7 @@ from types import ModuleType
 
 from ..errors import InputError
 
-LAWS = {"linear": "pdem.contact.linear"}
+LAWS = {"linear": "pdem.contact.linear", "cohesive": "pdem.contact.cohesive"}
 REQUIRED = ("NAME", "N_PARAMS", "HISTORY", "MOMENT", "MATERIAL_KEYS", "PWAVE_KEY", "FRICTION_KEY", "ip2", "force",
             "stiffness", "elastic_energy", "contact_forces", "PARAM_NAMES")
 
