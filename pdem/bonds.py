@@ -67,10 +67,11 @@ def bonded_rows(law, props, pos, radius, material, gid1, gid2, row_of, stress_fr
     return key, params, history, pen
 
 
-def check_bond_strengths(law, props, names, material, label):
+def check_bond_strengths(law, props, names, material):
     """InputError unless every material in ``material`` has c_N > 0 and c_T > 0."""
     cn, ct = law.bond_strengths(props, np.asarray(material, np.int64))
     for m, a, b in zip(material, cn, ct):
         if not (a > 0.0 and b > 0.0):
             key, v = ("normal_cohesion", a) if not a > 0.0 else ("shear_cohesion", b)
-            raise InputError(f"materials.{names[m]}.{key} = {v!r}: must be > 0 [Pa] for the bonds of {label}")
+            raise InputError(f"materials.{names[m]}.{key} = {float(v)!r}: must be > 0 [Pa] for bonds (the scene bonds "
+                             "spheres of this material)")

@@ -22,7 +22,7 @@ Values are typed strictly: numbers are numbers (``true`` is not 1), booleans are
                    [R_x, R_y, R_z], or "nottingham"|"ballast8"), member_radius [m] (default of
                    the named grains: 3.55 mm, 8.5 mm), material, box_lo, box_hi [m], count, seed,
                    breakable (bonded members, law "cohesive"), stress_free, mass_model
-                   ("members"|"grid"|"monte_carlo"), discretization, samples
+                   ("members"|"grid"|"monte_carlo"), discretization, samples, vel [m/s]
 """
 import tomllib
 
@@ -40,7 +40,7 @@ FACET_KEYS = {"vertices", "material", "velocity"}
 SPHERE_KEYS = {"pos", "radius", "material", "fixed", "vel"}
 DEPOSITION_KEYS = {"box_lo", "box_hi", "count", "radius", "radius_spread", "seed", "material", "walls_material"}
 CLUMP_KEYS = {"shape", "radii", "member_radius", "material", "box_lo", "box_hi", "count", "seed", "breakable",
-              "stress_free", "mass_model", "discretization", "samples"}
+              "stress_free", "mass_model", "discretization", "samples", "vel"}
 TOP_KEYS = {"simulation", "run", "materials", "walls", "facets", "spheres", "deposition", "clumps"}
 AXES = {"x": 0, "y": 1, "z": 2}
 
@@ -168,7 +168,7 @@ def add_clump_cloud(scene, c, label="clumps"):
     check_keys(label, c, CLUMP_KEYS, ("shape", "material", "box_lo", "box_hi", "count"))
     pos, radius = grain_shape(c, label)
     grains = grain_cloud(pos, radius, c["box_lo"], c["box_hi"], c["count"], c.get("seed", 0), label=label)
-    return scene.add_clumps(grains, c["material"], breakable=c.get("breakable", False),
+    return scene.add_clumps(grains, c["material"], breakable=c.get("breakable", False), vel=c.get("vel", (0.0, 0.0, 0.0)),
                             stress_free=c.get("stress_free", True), mass_model=c.get("mass_model", "members"),
                             discretization=c.get("discretization", 0), samples=c.get("samples", 0),
                             seed=c.get("seed", 0), label=label)

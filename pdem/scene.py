@@ -203,7 +203,7 @@ class Scene:
         makes them (False); ``vel`` applies to every member.
 
         Member gids count up from ``first_gid`` (default: the next free gid), clump by clump."""
-        sets = member_sets(f"{label}.members", members)
+        sets = member_sets(label, members)
         n = len(sets)
         counts = np.array([len(r) for _, r, _ in sets], np.int64)
         mats = _broadcast(f"{label}.material", material, int(counts.sum()))
@@ -418,7 +418,7 @@ class Scene:
             at = np.minimum(np.searchsorted(gid[order], both), len(gid) - 1)
             if np.any(gid[order][at] != both):
                 raise InputError(f"bonds: gid {int(both[gid[order][at] != both][0])} is not a sphere of the scene")
-            check_bond_strengths(law, props, self.material_names, np.unique(cols["material"][row_of(both)]), "bonds")
+            check_bond_strengths(law, props, self.material_names, np.unique(cols["material"][row_of(both)]))
             part = bonded_rows(law, props, cols["pos"], cols["radius"], cols["material"], g1, g2, row_of,
                                stress_free)
             reach = cols["radius"][row_of(g1)] + cols["radius"][row_of(g2)]
