@@ -10,9 +10,9 @@ from pathlib import Path
 import h5py
 import numpy as np
 import pytest
+from pdem_cli import MPIEXEC, run_pdem
 
 from analysis.groups import read_fragments
-from pdem_cli import MPIEXEC, run_pdem
 from pdem.io.checkpoint import read_checkpoint
 
 N_STEPS, K_STEP = 3000, 1777

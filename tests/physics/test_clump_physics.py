@@ -42,7 +42,7 @@ def spin_run(dt, t_end=0.4):
     d0 = np.linalg.norm(p.pos[:4] - c.pos[0], axis=1)
     drift, turn, rigid = 0.0, 0.0, 0.0
     for _ in range(20):
-        sim.run(int(round(t_end / 20 / dt)))
+        sim.run(round(t_end / 20 / dt))
         drift = max(drift, abs(energy() - e0) / e0)
         w = c.angvel[0]
         turn = max(turn, math.degrees(math.acos(min(1.0, w @ w0 / (np.linalg.norm(w) * np.linalg.norm(w0))))))

@@ -6,7 +6,13 @@ import pytest
 
 import pdem
 from pdem import Scene
-from pdem.clump_generators import THESIS_SHAPES, ballast8, grain_cloud, nottingham_grain, shape_members
+from pdem.clump_generators import (
+    THESIS_SHAPES,
+    ballast8,
+    grain_cloud,
+    nottingham_grain,
+    shape_members,
+)
 from pdem.clump_properties import clump_properties
 from pdem.config import scene_from_dict
 from pdem.fragments import label_fragments
@@ -33,13 +39,13 @@ def test_nottingham_grain():
 
 
 def test_ballast8_and_thesis_shapes():
-    pos, r = ballast8()
+    pos, _ = ballast8()
     assert len(pos) == 8 and pair_distances(pos).min() == pytest.approx(0.017, rel=1e-12)
     # thesis 4.4: the 48 mm grain of spheres r = 8.48 mm is the 8-sphere clump
-    pos, r = shape_members("ellipsoid", 0.00848, THESIS_SHAPES["sphere"])
+    pos, _ = shape_members("ellipsoid", 0.00848, THESIS_SHAPES["sphere"])
     assert len(pos) == 8
     for name, radii in THESIS_SHAPES.items():
-        pos, r = shape_members("ellipsoid", 0.0036, radii)
+        pos, _ = shape_members("ellipsoid", 0.0036, radii)
         q = pos / (np.asarray(radii) - 0.0036)  # each member sphere inside the ellipsoid
         assert np.all(np.einsum("ij,ij->i", q, q) <= 1 + 1e-9) and len(pos) > 50, name
         assert pair_distances(pos).min() == pytest.approx(0.0072, rel=1e-12)

@@ -21,8 +21,8 @@ NOTES.md "Clumps", "Cohesive bonds", "Facts for the implementer").
 """
 import numpy as np
 import pytest
-
 import yade_json
+
 from pdem import Scene
 from pdem.clump_properties import clump_properties
 from pdem.contact import cohesive, linear
