@@ -176,6 +176,27 @@ class Scene:
         self._spheres.append({k: np.asarray(cols[k]).copy() for k in FIELDS})
         return gids
 
+    def empty_like(self):
+        """A scene with this one's settings and materials (shared) and no bodies or boundaries."""
+        sc = Scene(**self.settings)
+        sc.materials = self.materials
+        return sc
+
+    def body_tables(self):
+        """The declared bodies as global tables (`pdem.checkpoint_state` layout): ``particles``;
+        ``clumps`` and ``clump_members`` if there are rigid clumps; the bonds, made now, as
+        ``contacts/sphere_sphere`` rows (key, params, history) if there are any."""
+        cols = self.spheres()
+        out = {"particles": cols}
+        clumps, members = self.clump_tables()
+        if clumps is not None:
+            out["clumps"], out["clump_members"] = clumps, members
+        if self._bonds:
+            skin = self.settings["skin"] if self.settings["skin"] is not None else 0.25 * float(np.mean(cols["radius"]))
+            key, params, history = self._bond_rows(cols, skin)
+            out["contacts/sphere_sphere"] = {"key": key, "params": params, "history": history}
+        return out
+
     # ------------------------------------------------------------------ clumps
     def next_clump_id(self):
         """The id the next declared clump gets (one past the largest so far)."""
@@ -185,7 +206,7 @@ class Scene:
 
     def add_clumps(self, members, material, *, breakable=False, vel=(0.0, 0.0, 0.0), angvel=(0.0, 0.0, 0.0),
                    angmom=None, mass_model="members", discretization=0, samples=0, seed=0, stress_free=True,
-                   first_gid=None, label="clumps"):
+                   first_gid=None, first_id=None, label="clumps"):
         """Add clumps; returns their ids. ``members``: a list of (member positions [m], member
         radii [m]: one number or one per member), one entry per clump; the members of a clump
         must overlap or touch so as to form one body; ``material`` is the members' material.
@@ -202,7 +223,8 @@ class Scene:
         built, stress free (``stress_free=True``, SPEC 1.2) or loaded by their overlap as Yade
         makes them (False); ``vel`` applies to every member.
 
-        Member gids count up from ``first_gid`` (default: the next free gid), clump by clump."""
+        Member gids count up from ``first_gid`` (default: the next free gid), clump by clump;
+        clump ids from ``first_id`` (default: the next free clump id)."""
         sets = member_sets(label, members)
         n = len(sets)
         counts = np.array([len(r) for _, r, _ in sets], np.int64)
@@ -211,8 +233,10 @@ class Scene:
         v = per_clump(f"{label}.vel", vel, n)
         first = self.next_gid() if first_gid is None else number(f"{label}.first_gid", first_gid, 0, integer=True)
         gids = np.arange(first, first + int(counts.sum()), dtype=np.int64)
-        c0 = self.next_clump_id()
+        c0 = self.next_clump_id() if first_id is None else number(f"{label}.first_id", first_id, 0, integer=True)
         ids = np.arange(c0, c0 + n, dtype=np.int64)
+        if set(ids.tolist()) & set(self._clump_ids):
+            raise InputError(f"{label}.first_id = {c0}: clump ids from {c0} are already taken")
         if boolean(f"{label}.breakable", breakable):
             w = per_clump(f"{label}.angvel", angvel, n)
             if angmom is not None or np.any(w != 0.0):

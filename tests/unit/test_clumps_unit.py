@@ -241,3 +241,34 @@ def test_toml_clumps_build():
     assert sim.clumps.n == 4 and sim.particles.n_local == 4 * 8 + 2 * 135
     c = sim.contacts("sphere_sphere")
     assert len(c["gid1"]) == 2 * 600 and np.all(c["normal_adhesion"] > 0)  # FCC: 600 bonds per grain
+
+
+# ---------------------------------------------------------------------------- staged scenes
+def test_stage_tables_with_clumps():
+    """Clumps poured as tables (`clump_tables`), cut (`remove_above` takes whole clumps) and
+    loaded into a stage's scene (`add_sphere_columns`, `add_clump_tables`, `load_state`)."""
+    from pdem.driver.stages import append_tables, clump_tables, empty_tables, next_free_clump, next_free_gid, \
+        remove_above
+
+    sc = cohesive_scene()
+    p, r = ballast8(0.005)
+    t = append_tables(empty_tables(), clump_tables(sc, grain_cloud(p, r, (0, 0, 0), (0.2, 0.1, 0.05), 6, seed=1),
+                                                   "grain", 0, 0))
+    p, r = shape_members("ellipsoid", 0.004, (0.012, 0.012, 0.012))
+    more = clump_tables(sc, grain_cloud(p, r, (0, 0, 0.05), (0.2, 0.1, 0.1), 4, seed=2), "grain", next_free_gid(t),
+                        next_free_clump(t), breakable=True)
+    t = append_tables(t, more)
+    assert len(t["particles"]["gid"]) == 6 * 8 + 4 * 8 and len(t["clumps"]["id"]) == 6
+    assert len(t["contacts/sphere_sphere"]["key"]) == 4 * 12 and set(t["particles"]["clump"]) == set(range(10))
+    cut, removed = remove_above(t, 0.07)
+    gone = set(np.unique(t["particles"]["clump"])) - set(np.unique(cut["particles"]["clump"]))
+    assert removed == 8 * len(gone) and gone <= set(range(6, 10)) and gone  # whole breakable grains
+    cut2, _ = remove_above(t, 0.02)
+    assert len(cut2["clumps"]["id"]) < 6 and np.all(np.isin(cut2["clump_members"]["clump"], cut2["clumps"]["id"]))
+    stage = sc.empty_like()
+    stage.add_sphere_columns(cut["particles"])
+    stage.add_clump_tables(cut["clumps"], cut["clump_members"])
+    sim = stage.build()
+    sim.load_state(cut)
+    assert sim.clumps.n == 6 and sim.particles.n_local == len(cut["particles"]["gid"])
+    assert len(sim.contacts()["gid1"]) == 12 * (4 - len(gone))
