@@ -259,9 +259,12 @@ class Clumps:
         self.mclump, self.mgid = mc[morder], mg[morder]
         self.relpos = np.ascontiguousarray(np.asarray(members["relpos"], np.float64).reshape(-1, 3)[morder])
         idx = np.searchsorted(self.id, self.mclump)
-        if len(self.mclump) and (np.any(idx >= self.n) or np.any(self.id[np.minimum(idx, max(self.n - 1, 0))] != self.mclump)):
-            raise ValueError("clump members: a member belongs to a clump this rank does not hold")
-        counts = np.bincount(idx, minlength=self.n) if self.n else np.zeros(0, np.int64)
+        held = idx < self.n
+        held[held] = self.id[idx[held]] == self.mclump[held]
+        if not held.all():
+            raise ValueError(f"clump members: gid {int(self.mgid[~held][0])} belongs to clump "
+                             f"{int(self.mclump[~held][0])}, which this rank does not hold")
+        counts = np.bincount(idx, minlength=self.n).astype(np.int64)
         self.mptr = np.zeros(self.n + 1, np.int64)
         np.cumsum(counts, out=self.mptr[1:])
         self.mrow = np.full(len(self.mgid), -1, np.int64)

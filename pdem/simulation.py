@@ -5,8 +5,8 @@ every contact kind the scene has (`Simulation.kinds`: sphere pairs, then walls, 
 loops generated from the geometry and the scene's law, `pdem.contact`) → sums per body in a
 fixed order (`pdem.forces`; rigid clumps then sum their members', `pdem.clumps`) → leapfrog
 (damped only if the scene asks; clumps by Yade's aspherical integrator, which places their
-members) → move walls, facets and boxes → ghost update. Δt is fixed or re-estimated every `dt_interval` steps (`pdem.timestep`);
-every `check_interval` steps the state is checked for blow-up (`pdem.diagnostics`). Global
+members) → move walls, facets and boxes → ghost update. Δt is fixed or re-estimated every
+`dt_interval` steps (`pdem.timestep`); every `check_interval` steps the state is checked for blow-up (`pdem.diagnostics`). Global
 reductions go through the domain's communicator (exact sums, so they do not depend on the rank
 count). Checkpoint tables: `pdem.checkpoint_state`.
 
@@ -19,6 +19,7 @@ import time as _time
 import numpy as np
 
 from . import checkpoint_state, diagnostics, integrator, neighbors, timestep
+from .clumps import Clumps
 from .contact.kinds import make_kinds
 from .state import DOF_ALL, FIELDS
 
@@ -219,8 +220,6 @@ class Simulation:
         ``angvel`` [rad/s], ``angmom`` [kg·m²/s], ``ori`` (w, x, y, z), ``mass`` [kg],
         ``inertia`` (principal) [kg·m²], ``aspherical``, ``force`` and ``torque`` (summed over
         the members in the last step, before damping) [N], [N·m]; empty without clumps."""
-        from .clumps import Clumps
-
         c = self.clumps if self.clumps is not None else Clumps(0.0)
         out, _ = c.table()
         out.update(force=c.force.copy(), torque=c.torque.copy())

@@ -129,3 +129,25 @@ def test_clumps_restart(comm, mpi_tmp_path):
         bad = differences(gathered(c, sim), ref)
         assert not comm.any_flag(bool(bad)), f"{what}, rank {comm.rank}: {bad}"
         assert (sim.dt, sim.time) == (ref_dt, ref_time), what
+
+
+def test_clump_wider_than_a_slab(comm):
+    """A chain clump 0.1 m long in a 0.2 m long scene: its halo (2 r_max + skin + 2 × 0.045 m)
+    is wider than the middle of 3 slabs: one-line InputError on every rank; 1 or 2 ranks have no
+    interior slab and run."""
+    import pytest
+
+    from pdem.errors import InputError
+    from pdem.scene import Scene
+
+    sc = Scene(dt=1e-5)
+    m = sc.material(density=2600.0, young=1e7, poisson=0.3, friction_angle=0.5)
+    sc.add_clump([(0.05 + 0.01 * k, 0.0, 0.0) for k in range(10)], 0.005, m)
+    sc.add_spheres([(0.0, 0.05, 0.0), (0.1, 0.05, 0.0), (0.2, 0.05, 0.0)], 0.005, m)
+    if comm.size < 3:
+        sc.build(comm=comm).run(10)
+        return
+    with pytest.raises(InputError) as exc:
+        sc.build(comm=comm)
+    msg = str(exc.value)
+    assert "\n" not in msg and msg.startswith("clumps: the largest clump reaches 0.045 m") and "fewer ranks" in msg

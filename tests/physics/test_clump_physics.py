@@ -205,3 +205,26 @@ def test_breakable_grain_breaks_into_fragments():
     assert len(f["n_members"]) > 1 and 0 < f["n_bonds"] < f0["n_bonds"]
     assert f["n_members"].sum() == len(pos) and np.all(f["clump"] == cid)
     assert f["mass"].sum() == pytest.approx(f0["mass"][0], rel=1e-14)
+
+
+def test_cohesive_law_on_facets_and_boxes():
+    """The cohesive law's boundary contacts (contact-point levers): a breakable grain at rest on a
+    facet and a rigid clump at rest on a box each carry exactly their weight."""
+    sc = Scene(dt=1e-5, damping=0.3, gravity=(0.0, 0.0, -9.81), law="cohesive")
+    g = sc.material(name="g", density=2600.0, young=1e7, poisson=0.3, friction_angle=0.5, normal_cohesion=1e5,
+                    shear_cohesion=1e5)
+    w = sc.material(name="w", density=7850.0, young=1e8, poisson=0.25, friction_angle=0.5, normal_cohesion=0.0,
+                    shear_cohesion=0.0)
+    pos, r = shape_members("ellipsoid", 0.004, (0.012, 0.012, 0.012))
+    grain = sc.add_breakable_clump(pos + (0.0, 0.0, 0.0125), r, g)
+    sc.add_clump(pos + (0.1, 0.0, 0.0125), r, g)
+    sc.add_facet([(-0.05, -0.05, 0.0), (0.05, -0.05, 0.0), (0.0, 0.08, 0.0)], w)
+    sc.add_box((0.1, 0.0, -0.05), (0.03, 0.03, 0.05), w, 10.0, fixed=True)
+    sim = sc.build()
+    sim.run(40000)
+    p = sim.particles
+    on_facet = -sim.kind("sphere_facet").totals(sim.comm)[0, 2]
+    on_box = -sim.kind("sphere_box").totals(sim.comm)[0, 2]
+    assert on_facet == pytest.approx(p.mass[p.clump == grain].sum() * 9.81, rel=1e-9)
+    assert on_box == pytest.approx(sim.clumps.mass[0] * 9.81, rel=1e-9)
+    assert fragments(sim)["n_bonds"] == 12  # intact
