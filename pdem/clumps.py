@@ -230,6 +230,40 @@ def drop_same_clump(pi, pj, row_clump):
     return pi[:keep], pj[:keep]
 
 
+@njit(cache=True)
+def add_member_stiffness(n_local, ptr, rows, state, kn, ks, out):
+    """out[b] += Σ (k_n + k_s) over the real contact rows of each owned body b (CSR ptr/rows)."""
+    for b in range(n_local):
+        for k in range(ptr[b], ptr[b + 1]):
+            p = rows[k]
+            if state[p] == 1:
+                out[b] += kn[p] + ks[p]
+
+
+@njit(cache=True)
+def clump_dt(nc, mptr, mrow, cpos, pos, radius, kmember, cmass, cinertia):
+    """sqrt(min over clumps of M/K_t and I_min/K_r) [s]: K_t = Σ (k_n + k_s) over the members'
+    contacts bounds the clump's stiffness in any direction, K_r = Σ (k_n + k_s) (|x_i − x_c| + r_i)²
+    its rotational stiffness (every contact force at the farthest point of its member); inf
+    without contacts."""
+    best = np.inf
+    for c in range(nc):
+        kt = 0.0
+        kr = 0.0
+        for k in range(mptr[c], mptr[c + 1]):
+            b = mrow[k]
+            dx = pos[b, 0] - cpos[c, 0]
+            dy = pos[b, 1] - cpos[c, 1]
+            dz = pos[b, 2] - cpos[c, 2]
+            lever = sqrt(dx * dx + dy * dy + dz * dz) + radius[b]
+            kt += kmember[b]
+            kr += kmember[b] * lever * lever
+        if kt > 0.0:
+            best = min(best, cmass[c] / kt)
+            best = min(best, min(cinertia[c, 0], min(cinertia[c, 1], cinertia[c, 2])) / kr)
+    return sqrt(best)
+
+
 class Clumps:
     """The rigid clumps owned by this rank and their members (see the module docstring).
 
@@ -335,6 +369,11 @@ class Clumps:
         leapfrog_clumps(self.n, self.pos, self.vel, self.angvel, self.angmom, self.ori, self.mass, self.inertia,
                         self.aspherical, self.force, self.torque, self.mptr, self.mrow, self.relpos, p.pos, p.vel,
                         p.angvel, gravity, damping, dt)
+
+    def stiffness_dt(self, p, kmember):
+        """The clumps' mass–spring time step [s] (`clump_dt`) from ``kmember`` [n_local], the
+        Σ (k_n + k_s) of each owned body's contacts."""
+        return clump_dt(self.n, self.mptr, self.mrow, self.pos, p.pos, p.radius, kmember, self.mass, self.inertia)
 
     # ------------------------------------------------------------------ diagnostics
     def energy(self, gravity, dt):

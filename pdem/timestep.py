@@ -10,7 +10,9 @@
   body's contacts bounds the coupled system (Gershgorin: ω_max² ≤ 2 K/m), so Δt_k is safe with
   a margin of √2 and a safety factor s ≤ 1 on top (default 0.8, Yade's default). (k_n, k_s) of
   each contact come from the law (`law.stiffness`), the normal from the contact's history.
-Walls, facets, boxes and stiff materials (steel at 10 E) are all in the sums (every contact
+A rigid clump adds its own estimate (`pdem.clumps.clump_dt`): M/K_t and I_min/K_r with every
+member contact's k_n + k_s at its lever from the clump centre (the members' own estimate alone
+misses the longer levers). Walls, facets, boxes and stiff materials (steel at 10 E) are all in the sums (every contact
 kind of `Simulation.kinds`, in the order forces are summed). The simulation never lets Δt
 exceed Δt_p itself (`update_dt`): in a loose cloud the few contacts present allow a long step
 that the many contacts formed before the next estimate do not.
@@ -20,6 +22,7 @@ from math import pi, sqrt
 import numpy as np
 from numba import njit
 
+from .clumps import add_member_stiffness
 from .state import DOF_ALL
 
 
@@ -92,12 +95,18 @@ def contact_dt(sim):
     nl = p.n_local
     kt = np.zeros((nl, 3))
     kr = np.zeros((nl, 3))
+    kmember = np.zeros(nl) if sim.clumps is not None else None
     for kind in sim.kinds:
         c = kind.contacts
         kn, ks = sim.law.stiffness(c.params[: c.n], c.history[: c.n], c.overlap[: c.n])
         add_stiffness(nl, p.blocked, p.radius, kind.ptr, kind.rows, c.state, kn, ks, c.history, kind.normal_column,
                       kt, kr)
-    return stiffness_dt(nl, p.mass, p.inertia, p.blocked, kt, kr)
+        if kmember is not None:
+            add_member_stiffness(nl, kind.ptr, kind.rows, c.state, kn, ks, kmember)
+    dt = stiffness_dt(nl, p.mass, p.inertia, p.blocked, kt, kr)
+    if kmember is not None:  # a clump turns about its centre: levers up to its extent
+        dt = min(dt, sim.clumps.stiffness_dt(p, kmember))
+    return dt
 
 
 def update_dt(sim, force=False):

@@ -272,3 +272,18 @@ def test_stage_tables_with_clumps():
     sim.load_state(cut)
     assert sim.clumps.n == 6 and sim.particles.n_local == len(cut["particles"]["gid"])
     assert len(sim.contacts()["gid1"]) == 12 * (4 - len(gone))
+
+
+def test_clump_time_step():
+    """A clump's own Δt bound: M/K_t and I_min/K_r with K_r = Σ k (|x_i − x_c| + r_i)²."""
+    from pdem.clumps import clump_dt
+
+    pos = np.array([[-0.01, 0.0, 0.0], [0.01, 0.0, 0.0]])
+    kmember = np.array([3e5, 1e5])  # Σ (kn + ks) of each member's contacts
+    mass, inertia = 0.01, np.array([[2e-7, 5e-7, 5e-7]])
+    got = clump_dt(1, np.array([0, 2]), np.array([0, 1]), np.zeros((1, 3)), pos, np.array([0.01, 0.01]), kmember,
+                   np.array([mass]), inertia)
+    kr = 4e5 * 0.02 ** 2
+    assert got == pytest.approx(math.sqrt(min(mass / 4e5, 2e-7 / kr)), rel=1e-15)
+    assert clump_dt(1, np.array([0, 2]), np.array([0, 1]), np.zeros((1, 3)), pos, np.array([0.01, 0.01]),
+                    np.zeros(2), np.array([mass]), inertia) == np.inf
