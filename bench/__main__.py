@@ -155,6 +155,7 @@ def settled_clump_bed(n_members):
         return [(p, r) for p, r in zip(d["pos"], d["radius"])]
     print(f"making a settled bed of {n_members // 8} 8-sphere clumps (cached in {path}) ...", flush=True)
     sim = make_clump_scene(n_members=n_members).build()
+    sim.damping = 0.7  # settles faster (the measured runs use the scene's 0.3)
     t0 = time.perf_counter()
     from pdem.driver.observables import unbalanced_force
 
@@ -163,7 +164,7 @@ def settled_clump_bed(n_members):
         ub = unbalanced_force(sim)
         vmax = float(np.abs(sim.clumps.vel).max())
         print(f"  step {sim.step}  t = {sim.time:.3f} s  unbalanced = {ub:.3f}  v_max = {vmax:.3f} m/s", flush=True)
-        if (sim.time > 1.2 and ub < 0.01) or sim.step > 20000:
+        if (sim.time > 1.0 and ub < 0.01) or sim.step > 12000:
             break
     p = sim.particles
     order = np.argsort(p.gid[: p.n_local])

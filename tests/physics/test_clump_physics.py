@@ -13,6 +13,11 @@
   to the grain's.
 """
 import math
+import os
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -228,3 +233,46 @@ def test_cohesive_law_on_facets_and_boxes():
     assert on_facet == pytest.approx(p.mass[p.clump == grain].sum() * 9.81, rel=1e-9)
     assert on_box == pytest.approx(sim.clumps.mass[0] * 9.81, rel=1e-9)
     assert fragments(sim)["n_bonds"] == 12  # intact
+
+
+THREAD_SCRIPT = textwrap.dedent("""
+    import sys
+    import numba
+    numba.set_num_threads(int(sys.argv[1]))
+    sys.path.insert(0, sys.argv[3])
+    from pdem import kernels
+    kernels.PARALLEL_MIN = 1  # every kernel runs its parallel twin, also on this small scene
+    from clump_scene import make_scene
+    sim = make_scene().build()
+    sim.run(1500)
+    assert numba.get_num_threads() == int(sys.argv[1])
+    p = sim.particles
+    order = p.gid[: p.n_local].argsort()
+    c = sim.clumps_table()
+    with open(sys.argv[2], "wb") as fh:
+        for a in (p.pos, p.vel, p.angvel, p.force, p.torque):
+            fh.write(a[: p.n_local][order].tobytes())
+        for k in ("pos", "vel", "angvel", "angmom", "ori", "force", "torque"):
+            fh.write(c[k].tobytes())
+""")
+
+
+@pytest.mark.slow
+def test_clump_thread_invariance(tmp_path):
+    """The MPI tests' clump scene (rigid clumps and breakable grains) with every kernel's parallel
+    twin: 1 and 2 threads give the same bits (bodies and clumps). Slow the first time: numba
+    compiles the parallel twins of every kernel (then they are cached)."""
+    script = tmp_path / "run.py"
+    script.write_text(THREAD_SCRIPT)
+    here = Path(__file__).resolve().parent
+    env = dict(os.environ, PYTHONPATH=str(here.parent.parent) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    env.pop("NUMBA_NUM_THREADS", None)
+    out = {}
+    for threads in (1, 2):
+        dest = tmp_path / f"state{threads}.bin"
+        r = subprocess.run([sys.executable, str(script), str(threads), str(dest), str(here.parent / "mpi")], env=env,
+                           capture_output=True, text=True, timeout=600)
+        assert r.returncode == 0, r.stderr[-3000:]
+        out[threads] = dest.read_bytes()
+    assert len(out[1]) == (5 * 672 * 3 + 60 * 22) * 8
+    assert out[1] == out[2]
