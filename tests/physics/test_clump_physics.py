@@ -271,7 +271,7 @@ def test_clump_thread_invariance(tmp_path):
     for threads in (1, 2):
         dest = tmp_path / f"state{threads}.bin"
         r = subprocess.run([sys.executable, str(script), str(threads), str(dest), str(here.parent / "mpi")], env=env,
-                           capture_output=True, text=True, timeout=600)
+                           capture_output=True, text=True, timeout=600, check=False)
         assert r.returncode == 0, r.stderr[-3000:]
         out[threads] = dest.read_bytes()
     assert len(out[1]) == (5 * 672 * 3 + 60 * 22) * 8

@@ -247,8 +247,14 @@ def test_toml_clumps_build():
 def test_stage_tables_with_clumps():
     """Clumps poured as tables (`clump_tables`), cut (`remove_above` takes whole clumps) and
     loaded into a stage's scene (`add_sphere_columns`, `add_clump_tables`, `load_state`)."""
-    from pdem.driver.stages import append_tables, clump_tables, empty_tables, next_free_clump, next_free_gid, \
-        remove_above
+    from pdem.driver.stages import (
+        append_tables,
+        clump_tables,
+        empty_tables,
+        next_free_clump,
+        next_free_gid,
+        remove_above,
+    )
 
     sc = cohesive_scene()
     p, r = ballast8(0.005)
