@@ -7,7 +7,12 @@ runs `--steps` steps after a warm-up and records, in ``bench/results.json`` (a l
 case, n_particles, ranks, threads, steps, wall_s, particle_steps_per_s, contacts_per_particle,
 bytes_per_particle, and the time split neighbours / contacts / integration / communication.
 
-    python -m bench [--sizes 10000 50000] [--threads 1 2] [--steps 200]
+Clump bed (``clump_bed_N``): N member spheres in N/8 rigid 8-sphere clumps (member r = 8.5 mm,
+SPEC 2.3; `pdem.clump_generators.ballast8`, randomly turned, settled once and cached), the same
+materials, damping and walls; ``particle_steps_per_s`` counts member-steps, and
+``per_member_ratio`` is that over the sphere bed of the same N and threads.
+
+    python -m bench [--sizes 10000 50000] [--clump-sizes 50000] [--threads 1 2] [--steps 200]
     python -m bench --mpi [--mpi-sizes 50000 200000] [--ranks 1 2] [--steps 300]
 
 ``--mpi``: the slab-decomposed code (slabs along x, the long axis of the box) on 1 and 2 ranks,
@@ -37,6 +42,7 @@ import numpy as np
 HERE = Path(__file__).resolve().parent
 CACHE = HERE / "cache"
 R_MEAN = 0.01625
+CLUMP_MEMBER_R = 0.0085
 
 
 def make_scene(pos=None, radius=None, n=None, seed=7):
@@ -114,6 +120,120 @@ def bed(n):
     if n > 50000 and n % 4 == 0 and not (CACHE / f"bed_{n}.npz").exists():
         return tiled_bed(n)
     return settled_bed(n)
+
+
+def make_clump_scene(grains=None, n_members=None, seed=7):
+    """The clump bed: 8-sphere clumps (member r = 8.5 mm, SPEC 2.3; the materials, damping and
+    walls of the sphere bed) in a box scaled so that the settled bed is about 0.6 m high."""
+    from pdem import Scene
+    from pdem.clump_generators import ballast8, grain_cloud
+
+    n_clumps = len(grains) if grains is not None else n_members // 8
+    side_y = max(0.3, (n_clumps * 4.5e-5 / 0.6 / 2.0) ** 0.5)
+    lo, hi = np.array([0.0, 0.0, 0.0]), np.array([2.0 * side_y, side_y, 40.0])
+    if grains is None:
+        pos, radius = ballast8(CLUMP_MEMBER_R)
+        grains = grain_cloud(pos, radius, lo, hi, n_clumps, seed)
+    scene = Scene(dt="auto", damping=0.3, gravity=(0, 0, -9.81), allow_initial_overlap=True, energy_check=False)
+    ballast = scene.material(name="ballast", density=2600, young=2.8e6, poisson=0.3, friction_angle=0.5)
+    steel = scene.material(name="steel", density=7850, young=2.8e7, poisson=0.25, friction_angle=0.5)
+    scene.add_clumps(grains, ballast)
+    scene.add_wall("z", 0.0, steel, sense=1)
+    scene.add_wall("x", lo[0], steel, sense=1)
+    scene.add_wall("x", hi[0], steel, sense=-1)
+    scene.add_wall("y", lo[1], steel, sense=1)
+    scene.add_wall("y", hi[1], steel, sense=-1)
+    return scene
+
+
+def settled_clump_bed(n_members):
+    """[(member pos [8, 3], member radius [8])] of a settled clump bed, from the cache or made now."""
+    CACHE.mkdir(exist_ok=True)
+    path = CACHE / f"clump_bed_{n_members}.npz"
+    if path.exists():
+        d = np.load(path)
+        return [(p, r) for p, r in zip(d["pos"], d["radius"])]
+    print(f"making a settled bed of {n_members // 8} 8-sphere clumps (cached in {path}) ...", flush=True)
+    sim = make_clump_scene(n_members=n_members).build()
+    sim.damping = 0.7  # settles faster (the measured runs use the scene's 0.3)
+    t0 = time.perf_counter()
+    from pdem.driver.observables import unbalanced_force
+
+    while True:
+        sim.run(500)
+        ub = unbalanced_force(sim)
+        vmax = float(np.abs(sim.clumps.vel).max())
+        print(f"  step {sim.step}  t = {sim.time:.3f} s  unbalanced = {ub:.3f}  v_max = {vmax:.3f} m/s", flush=True)
+        if (sim.time > 1.0 and ub < 0.01) or sim.step > 12000:
+            break
+    p = sim.particles
+    order = np.argsort(p.gid[: p.n_local])
+    pos, radius = p.pos[order].reshape(-1, 8, 3), p.radius[order].reshape(-1, 8)
+    np.savez(path, pos=pos, radius=radius)
+    print(f"  settled in {time.perf_counter() - t0:.0f} s", flush=True)
+    return [(a, b) for a, b in zip(pos, radius)]
+
+
+def run_clump_case(n, threads, steps):
+    """One measurement of the clump bed of n members in this process."""
+    import numba
+
+    numba.set_num_threads(threads)
+    sim = make_clump_scene(settled_clump_bed(n)).build()
+    sim.run(50)
+    for k in sim.timers.seconds:
+        sim.timers.seconds[k] = 0.0
+    rebuilds = sim.n_rebuilds
+    t0 = time.perf_counter()
+    sim.run(steps)
+    wall = time.perf_counter() - t0
+    p = sim.particles
+    split = dict(sim.timers.seconds)
+    nbytes = p.bytes_per_particle() * p.n_total + sum(
+        c.bytes() for c in (sim.kind("sphere_sphere").contacts, sim.kind("sphere_wall").contacts)
+    )
+    return {
+        "case": f"clump_bed_{n}",
+        "n_particles": int(n),
+        "clumps": int(sim.clumps.n),
+        "ranks": 1,
+        "threads": threads,
+        "steps": steps,
+        "wall_s": wall,
+        "particle_steps_per_s": n * steps / wall,
+        "contacts_per_particle": sim.contacts_per_particle(),
+        "bytes_per_particle": nbytes / n,
+        "rebuilds": sim.n_rebuilds - rebuilds,
+        "dt": sim.dt,
+        "neighbours_s": split["neighbours"],
+        "contacts_s": split["contacts"],
+        "integration_s": split["integration"],
+        "comm_s": split["communication"],
+        "other_s": split["other"] + split["output"],
+        "halo_fraction": 0.0,
+        "machine": f"{platform.machine()} {os.cpu_count()} cores",
+        "date": time.strftime("%Y-%m-%d"),
+    }
+
+
+def clump_ratios(records):
+    """Lines: member-steps/s of each clump bed over the particle-steps/s of the sphere bed of the
+    same size and threads (records of this run, else of bench/results.json)."""
+    path = HERE / "results.json"
+    known = (json.loads(path.read_text()) if path.exists() else []) + records
+    out = []
+    for r in records:
+        if not r["case"].startswith("clump_bed_"):
+            continue
+        base = [b for b in known if b["case"] == f"settled_bed_{r['n_particles']}" and b["threads"] == r["threads"]
+                and not b.get("mpi")]
+        if base:
+            ratio = r["particle_steps_per_s"] / base[-1]["particle_steps_per_s"]
+            r["per_member_ratio"] = ratio
+            out.append(f"{r['case']} ({r['clumps']} clumps), {r['threads']} thread(s): "
+                       f"{r['particle_steps_per_s'] / 1e6:.2f} M member-steps/s = {100 * ratio:.0f} % of the sphere "
+                       f"bed's {base[-1]['particle_steps_per_s'] / 1e6:.2f} M particle-steps/s")
+    return "\n".join(out)
 
 
 def run_mpi_case(n, steps):
@@ -282,7 +402,10 @@ def main(argv=None):
     ap.add_argument("--ranks", type=int, nargs="+", default=[1, 2])
     ap.add_argument("--no-ceiling", action="store_true",
                     help="skip the reference run of R independent 1-rank processes at once")
+    ap.add_argument("--clump-sizes", type=int, nargs="*", default=[50000],
+                    help="member counts of the clump beds (8-sphere clumps); none: skip them")
     ap.add_argument("--one", nargs=2, type=int, metavar=("N", "THREADS"), help=argparse.SUPPRESS)
+    ap.add_argument("--one-clumps", nargs=2, type=int, metavar=("N", "THREADS"), help=argparse.SUPPRESS)
     ap.add_argument("--one-mpi", type=int, metavar="N", help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
     if args.one_mpi:
@@ -295,12 +418,17 @@ def main(argv=None):
     if args.one:
         print("RESULT " + json.dumps(run_case(args.one[0], args.one[1], args.steps)), flush=True)
         return 0
+    if args.one_clumps:
+        print("RESULT " + json.dumps(run_clump_case(args.one_clumps[0], args.one_clumps[1], args.steps)), flush=True)
+        return 0
     records = []
-    for n in args.sizes:
-        settled_bed(n)
+    cases = [("--one", n, settled_bed) for n in args.sizes] + [("--one-clumps", n, settled_clump_bed)
+                                                                for n in args.clump_sizes]
+    for flag, n, prepare in cases:
+        prepare(n)
         for th in args.threads:
             env = dict(os.environ, NUMBA_NUM_THREADS=str(max(args.threads)), NUMBA_THREADING_LAYER="workqueue")
-            out = subprocess.run([sys.executable, "-m", "bench", "--one", str(n), str(th), "--steps", str(args.steps)],
+            out = subprocess.run([sys.executable, "-m", "bench", flag, str(n), str(th), "--steps", str(args.steps)],
                                  env=env, capture_output=True, text=True, cwd=HERE.parent)
             if out.returncode != 0:
                 print(out.stdout, out.stderr, file=sys.stderr)
@@ -308,8 +436,11 @@ def main(argv=None):
             rec = json.loads([l for l in out.stdout.splitlines() if l.startswith("RESULT ")][-1][7:])
             records.append(rec)
             print(table([rec]).splitlines()[-1], flush=True)
+    ratios = clump_ratios(records)
     merge_results(records)
     print("\n" + table(records))
+    if ratios:
+        print("\n" + ratios)
     print(f"\nwrote {HERE / 'results.json'}")
     return 0
 

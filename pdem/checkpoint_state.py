@@ -9,11 +9,22 @@ Tables: ``particles`` (`pdem.state.FIELDS` of the owned bodies, key gid),
 ``contacts/<kind>`` (real contacts of each kind of `Simulation.kinds`: key, params, history; a
 pair that straddles a slab edge is held, bit for bit identical, by both ranks and the writer
 keeps one copy), ``walls`` (index, position, velocity), ``facets`` (index, geom, vertices,
-velocity) and ``boxes`` (index, center, velocity), replicated on every rank.
+velocity) and ``boxes`` (index, center, velocity), replicated on every rank; with rigid clumps
+``clumps`` (id, pos, vel, angvel, angmom, ori, mass, inertia, aspherical; `pdem.clumps`) and
+``clump_members`` (gid, clump, relpos), written by the rank that owns each clump. Bonds of
+breakable clumps are contacts (``contacts/sphere_sphere``, the law's history).
 """
 import numpy as np
 
-from .state import FIELDS
+from .clump_setup import check_tables, owner_positions
+from .clumps import (
+    CLUMP_TABLE,
+    MEMBER_TABLE,
+    empty_clump_table,
+    empty_member_table,
+    extent_of,
+)
+from .state import FIELDS, with_defaults
 
 
 def _boundary_tables(sim):
@@ -51,6 +62,9 @@ def checkpoint_tables(sim):
     for name, table in _boundary_tables(sim).items():
         tables[name] = table
         keys[name] = ["index"]
+    if sim.clumps is not None:  # rigid clumps (pdem.clumps): owned by one rank each, with their members
+        tables[CLUMP_TABLE], tables[MEMBER_TABLE] = sim.clumps.table()
+        keys[CLUMP_TABLE], keys[MEMBER_TABLE] = ["id"], ["gid"]
     meta = {
         "step": int(sim.step),
         "time": float(sim.time),
@@ -88,6 +102,9 @@ def restore_checkpoint(sim, tables, meta):
     for kind in sim.kinds:
         if f"contacts/{kind.name}" not in tables:
             raise ValueError(f"table contacts/{kind.name} missing (the scene has contacts of that kind)")
+    if (sim.clumps is not None) != (CLUMP_TABLE in tables):
+        raise ValueError("the checkpoint has rigid clumps and the scene has none" if CLUMP_TABLE in tables
+                         else "the scene has rigid clumps and the checkpoint has none")
     sim.moving_boundaries = bool(meta.get("moving_boundaries", sim.moving_boundaries))
     load_state(sim, tables)
     sim.n_rebuilds = int(meta.get("n_rebuilds", sim.n_rebuilds))
@@ -105,14 +122,28 @@ def load_state(sim, tables):
     whose bodies are gone are dropped at the next rebuild); walls, facets and boxes get their
     state back when their table is present. Every rank passes the same tables. Used by
     `restore_checkpoint` and by staged scenes between stages."""
-    cols = tables["particles"]
+    cols = with_defaults(tables["particles"])
     missing = [k for k in FIELDS if k not in cols]
     if missing:
         raise ValueError(f"table particles lacks column(s) {', '.join(missing)}")
     p = sim.particles
     p.n_ghost = 0
     p.n_local = 0
-    sim.domain.distribute(p, {k: np.asarray(cols[k]) for k in FIELDS})
+    cols = {k: np.asarray(cols[k]) for k in FIELDS}
+    if sim.clumps is None:
+        if CLUMP_TABLE in tables and len(tables[CLUMP_TABLE]["id"]):
+            raise ValueError("table clumps: the scene was built without rigid clumps (declare them, e.g. "
+                             "Scene.add_clump_tables)")
+        sim.domain.distribute(p, cols)
+    else:
+        clumps = tables.get(CLUMP_TABLE, empty_clump_table())
+        members = tables.get(MEMBER_TABLE, empty_member_table())
+        check_tables(cols, clumps, members)
+        sim.domain.distribute(p, cols, owner_positions(cols, clumps, members))
+        sim.clumps.extent = extent_of(members)
+        sim.clumps.set_rows(clumps, members)
+        sim.clumps.keep(sim.domain.owns(sim.clumps.pos))
+        sim.clumps.attach(p)
     if len(sim.walls) and "walls" in tables:
         sim.walls.position[:] = tables["walls"]["position"]
         sim.walls.velocity[:] = tables["walls"]["velocity"]

@@ -21,6 +21,12 @@ Values are typed strictly: numbers are numbers (``true`` is not 1), booleans are
     [[spheres]]    pos [[m]], radius [m] or [[m]], material, fixed, vel [m/s]
     [deposition]   box_lo, box_hi [m], count, radius [m], radius_spread [-], seed, material,
                    walls_material (optional: adds a floor and four side walls of the box)
+    [[clumps]]     grains of one shape (`pdem.clump_generators`), each turned at random, on a
+                   grid in a box: shape ("ellipsoid"|"cylinder"|"cake" with radii [m] =
+                   [R_x, R_y, R_z], or "nottingham"|"ballast8"), member_radius [m] (default of
+                   the named grains: 3.55 mm, 8.5 mm), material, box_lo, box_hi [m], count, seed,
+                   breakable (bonded members, law "cohesive"), stress_free, mass_model
+                   ("members"|"grid"|"monte_carlo"), discretization, samples, vel [m/s]
 """
 import tomllib
 
@@ -46,12 +52,14 @@ SIMULATION_KEYS = {
     "domain",
 }
 RUN_DEFAULTS = {"steps": 1000, "progress_every": 1000, "output_every": 100, "snapshot_every": 0, "checkpoint_every": 0,
-                "checkpoint_every_s": 0.0, "checkpoint_keep": 3, "kind": "scene"}
+                "checkpoint_every_s": 0.0, "checkpoint_keep": 3, "kind": "scene", "fragments_every": 0}
 WALL_KEYS = {"axis", "position", "material", "sense", "velocity"}
 FACET_KEYS = {"vertices", "material", "velocity"}
 SPHERE_KEYS = {"pos", "radius", "material", "fixed", "vel"}
 DEPOSITION_KEYS = {"box_lo", "box_hi", "count", "radius", "radius_spread", "seed", "material", "walls_material"}
-TOP_KEYS = {"simulation", "run", "materials", "material_pairs", "walls", "facets", "spheres", "deposition"}
+CLUMP_KEYS = {"shape", "radii", "member_radius", "material", "box_lo", "box_hi", "count", "seed", "breakable",
+              "stress_free", "mass_model", "discretization", "samples", "vel"}
+TOP_KEYS = {"simulation", "run", "materials", "material_pairs", "walls", "facets", "spheres", "deposition", "clumps"}
 AXES = {"x": 0, "y": 1, "z": 2}
 
 
@@ -97,7 +105,8 @@ def run_settings(doc):
     run = dict(RUN_DEFAULTS)
     check_keys("run", doc.get("run", {}), set(RUN_DEFAULTS))
     run.update(doc.get("run", {}))
-    for k in ("steps", "progress_every", "output_every", "snapshot_every", "checkpoint_every", "checkpoint_keep"):
+    for k in ("steps", "progress_every", "output_every", "snapshot_every", "checkpoint_every", "checkpoint_keep",
+              "fragments_every"):
         run[k] = number(f"run.{k}", run[k], 0, integer=True)
     run["checkpoint_every_s"] = number("run.checkpoint_every_s", run["checkpoint_every_s"], 0.0,
                                        allow="a number of seconds >= 0 (0: off)")
@@ -143,6 +152,8 @@ def scene_from_dict(doc, scene_tables=()):
         scene.add_spheres(s["pos"], s["radius"], s["material"], fixed=s.get("fixed", False), vel=s.get("vel"))
     if "deposition" in doc:
         add_deposition(scene, doc["deposition"])
+    for k, c in enumerate(_table_list("clumps", doc.get("clumps", []))):
+        add_clump_cloud(scene, c, f"clumps[{k}]")
     return scene
 
 
@@ -153,6 +164,50 @@ def add_material_pairs(scene, doc):
         if not (isinstance(names, list) and len(names) == 2 and all(isinstance(n, str) for n in names)):
             raise InputError(f"material_pairs[{k}].materials = {names!r}: must be two material names")
         scene.material_pair(names[0], names[1], **{key: v for key, v in t.items() if key != "materials"})
+
+
+def grain_shape(c, label):
+    """(member pos, member radius) of the grain a [[clumps]] table describes."""
+    from .clump_generators import (
+        BALLAST8_MEMBER_RADIUS,
+        NOTTINGHAM_MEMBER_RADIUS,
+        ballast8,
+        nottingham_grain,
+        shape_members,
+    )
+
+    shape = c.get("shape")
+    if shape == "nottingham":
+        return nottingham_grain(c.get("member_radius", NOTTINGHAM_MEMBER_RADIUS))
+    if shape == "ballast8":
+        return ballast8(c.get("member_radius", BALLAST8_MEMBER_RADIUS))
+    if shape in ("ellipsoid", "cylinder", "cake"):
+        for key in ("radii", "member_radius"):
+            if key not in c:
+                raise InputError(f"{label}.{key}: required key is missing for shape {shape!r}")
+        return shape_members(shape, c["member_radius"], c["radii"])
+    raise InputError(f"{label}.shape = {shape!r}: must be one of ellipsoid, cylinder, cake, nottingham, ballast8")
+
+
+def add_clump_cloud(scene, c, label="clumps"):
+    """``count`` grains of a [[clumps]] table, randomly turned, on a grid in its box."""
+    from .clump_generators import grain_cloud
+
+    check_keys(label, c, CLUMP_KEYS, ("shape", "material", "box_lo", "box_hi", "count"))
+    pos, radius = grain_shape(c, label)
+    grains = grain_cloud(pos, radius, c["box_lo"], c["box_hi"], c["count"], c.get("seed", 0), label=label)
+    return scene.add_clumps(
+        grains,
+        c["material"],
+        breakable=c.get("breakable", False),
+        vel=c.get("vel", (0.0, 0.0, 0.0)),
+        stress_free=c.get("stress_free", True),
+        mass_model=c.get("mass_model", "members"),
+        discretization=c.get("discretization", 0),
+        samples=c.get("samples", 0),
+        seed=c.get("seed", 0),
+        label=label,
+    )
 
 
 def add_deposition(scene, d):

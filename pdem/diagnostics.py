@@ -1,8 +1,8 @@
 """What a running simulation can tell about itself, and the blow-up check.
 
-- `energy`: mechanical energy [J] of the owned free bodies and the contacts (kinetic,
-  rotational, gravitational potential −m g·x, elastic from the law, and their total synchronised
-  to the positions), as exact global sums.
+- `energy`: mechanical energy [J] of the owned free bodies (rigid clumps as one body each) and
+  the contacts (kinetic, rotational, gravitational potential −m g·x, elastic from the law, and
+  their total synchronised to the positions), as exact global sums.
 - `contacts_per_particle`, `max_overlap_ratio`: real contacts per body; the largest overlap over
   the smaller radius of the pair [-].
 - `check_stability`: stop with `InstabilityError` naming the cause if the state is not finite,
@@ -45,6 +45,8 @@ def energy(sim):
     p = sim.particles
     nl = p.n_local
     free = p.blocked[:nl] != DOF_ALL
+    if sim.clumps is not None:  # a rigid clump counts as one body, not as its members
+        free &= sim.clumps.row_clump[:nl] < 0
     m = p.mass[:nl][free]
     v = p.vel[:nl][free]
     w = p.angvel[:nl][free]
@@ -55,6 +57,9 @@ def energy(sim):
     # potential energy at the positions the overlaps were computed from (start of the step)
     x_start = p.pos[:nl][free] - v * h
     pe = -m * (x_start @ sim.gravity)
+    if sim.clumps is not None:
+        cke, ckr, cpe = sim.clumps.energy(sim.gravity, h)
+        ke, kr, pe = np.concatenate([ke, cke]), np.concatenate([kr, ckr]), np.concatenate([pe, cpe])
     el = []
     for kind in sim.kinds:
         c = kind.contacts

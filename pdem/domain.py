@@ -3,6 +3,7 @@
 `pdem.parallel.slab_domain.SlabDomain` implements the same methods over MPI. The simulation
 calls only these; physics code never knows its rank.
 """
+import numpy as np
 
 
 class SerialDomain:
@@ -12,9 +13,14 @@ class SerialDomain:
         self.comm = comm
         self.comm_seconds = 0.0
 
-    def distribute(self, particles, cols):
-        """Take every body of the full column dict."""
+    def distribute(self, particles, cols, owner_pos=None):
+        """Take every body of the full column dict (``owner_pos``: the positions that decide
+        ownership, e.g. a clump member's clump centre; nothing to decide here)."""
         particles.append_local(cols)
+
+    def owns(self, points):
+        """bool [n]: which of the points [n, 3] lie in this rank's part of space (all)."""
+        return np.ones(len(points), bool)
 
     def halo_width(self):
         return 0.0

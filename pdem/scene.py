@@ -20,7 +20,17 @@ from math import pi
 
 import numpy as np
 
+from .bonds import TOUCH, bonded_rows, check_bond_strengths
 from .boxes import Boxes
+from .clump_setup import (
+    check_tables,
+    mass_settings,
+    member_sets,
+    owner_positions,
+    per_clump,
+    rigid_rows,
+)
+from .clumps import Clumps, extent_of
 from .contact import get_law
 from .domain import SerialDomain
 from .errors import InputError
@@ -28,14 +38,14 @@ from .facets import Facets
 from .guard import Guard, check_initial_overlaps
 from .materials import MaterialTable
 from .simulation import Simulation
-from .state import DOF_ALL, FIELDS, Particles
+from .state import DOF_ALL, FIELDS, Particles, with_defaults
 from .validate import boolean, number, vectors
 from .walls import Walls
 
 
 def sphere_columns(pos, radius, density, first_gid):
     """gid, pos, radius, mass, inertia of spheres at rest (vel, angvel zero) [SI], with Yade's
-    mass V·ρ and inertia (2/5)·V·r²·ρ."""
+    mass V·ρ and inertia (2/5)·V·r²·ρ; in no clump (clump -1)."""
     # element by element with Python floats, as Yade's utils.sphere does: numpy's power can
     # differ from Python's r**3 in the last bit
     volume = np.array([(4.0 / 3) * pi * float(x) ** 3 for x in radius])
@@ -48,6 +58,7 @@ def sphere_columns(pos, radius, density, first_gid):
         "radius": np.asarray(radius, np.float64),
         "mass": np.array([v * float(d) for v, d in zip(volume, density)]),
         "inertia": np.array([((2.0 / 5.0) * v * float(x) ** 2) * float(d) for v, x, d in zip(volume, radius, density)]),
+        "clump": np.full(n, -1, np.int64),
     }
 
 
@@ -93,6 +104,9 @@ class Scene:
         self.facets = Facets()
         self.boxes = Boxes()
         self._spheres = []
+        self._clumps = []  # (clumps, clump_members) tables of the rigid clumps (pdem.clumps)
+        self._bonds = []  # (gid1, gid2, stress_free) of the bonds of breakable clumps (pdem.bonds)
+        self._clump_ids = []
 
     @property
     def material_names(self):
@@ -181,6 +195,7 @@ class Scene:
     def add_sphere_columns(self, cols):
         """Add bodies given as FIELDS columns (e.g. a checkpoint's ``particles`` table), keeping
         their global ids and state; used between the stages of a multi-stage scene."""
+        cols = with_defaults(cols)
         gids = np.asarray(cols["gid"])
         taken = np.concatenate([s["gid"] for s in self._spheres]) if self._spheres else np.zeros(0, np.int64)
         clash = np.intersect1d(gids, taken)
@@ -188,6 +203,130 @@ class Scene:
             raise InputError(f"spheres.gid: id {int(clash[0])} is already taken")
         self._spheres.append({k: np.asarray(cols[k]).copy() for k in FIELDS})
         return gids
+
+    def empty_like(self):
+        """A scene with this one's settings and materials (shared) and no bodies or boundaries."""
+        sc = Scene(**self.settings)
+        sc.materials = self.materials
+        return sc
+
+    def body_tables(self):
+        """The declared bodies as global tables (`pdem.checkpoint_state` layout): ``particles``;
+        ``clumps`` and ``clump_members`` if there are rigid clumps; the bonds, made now, as
+        ``contacts/sphere_sphere`` rows (key, params, history) if there are any."""
+        cols = self.spheres()
+        out = {"particles": cols}
+        clumps, members = self.clump_tables()
+        if clumps is not None:
+            out["clumps"], out["clump_members"] = clumps, members
+        if self._bonds:
+            skin = self.settings["skin"] if self.settings["skin"] is not None else 0.25 * float(np.mean(cols["radius"]))
+            key, params, history = self._bond_rows(cols, skin)
+            out["contacts/sphere_sphere"] = {"key": key, "params": params, "history": history}
+        return out
+
+    # ------------------------------------------------------------------ clumps
+    def next_clump_id(self):
+        """The id the next declared clump gets (one past the largest so far)."""
+        used = [max(self._clump_ids)] if self._clump_ids else []
+        used += [int(s["clump"].max()) for s in self._spheres if len(s["clump"])]
+        return max(used, default=-1) + 1
+
+    def add_clumps(self, members, material, *, breakable=False, vel=(0.0, 0.0, 0.0), angvel=(0.0, 0.0, 0.0),
+                   angmom=None, mass_model="members", discretization=0, samples=0, seed=0, stress_free=True,
+                   first_gid=None, first_id=None, label="clumps"):
+        """Add clumps; returns their ids. ``members``: a list of (member positions [m], member
+        radii [m]: one number or one per member), one entry per clump; the members of a clump
+        must overlap or touch so as to form one body; ``material`` is the members' material.
+
+        Rigid clumps (`pdem.clumps`, Yade's clumps): ``vel`` [m/s] and ``angvel`` [rad/s] (one
+        triple or one per clump); ``angmom`` [kg·m²/s] sets the angular momentum instead of
+        I·ω (then ``angvel`` is only the spin of the first step's damping and contact velocities,
+        as when Yade's state.angMom is set); ``mass_model`` "members" (Yade's default: overlaps
+        counted twice), "grid" (Yade's discretization, ``discretization`` cells along the
+        shortest side) or "monte_carlo" (``samples`` points, ``seed``): `pdem.clump_properties`.
+
+        ``breakable=True``: the members are free spheres joined by bonds of the scene's law
+        (cohesive) between every two members that overlap or touch, made when the scene is
+        built, stress free (``stress_free=True``, SPEC 1.2) or loaded by their overlap as Yade
+        makes them (False); ``vel`` applies to every member.
+
+        Member gids count up from ``first_gid`` (default: the next free gid), clump by clump;
+        clump ids from ``first_id`` (default: the next free clump id)."""
+        sets = member_sets(label, members)
+        n = len(sets)
+        counts = np.array([len(r) for _, r, _ in sets], np.int64)
+        mats = _broadcast(f"{label}.material", material, int(counts.sum()))
+        m = np.array([self._material_index(f"{label}.material", x) for x in mats], np.int64)
+        v = per_clump(f"{label}.vel", vel, n)
+        first = self.next_gid() if first_gid is None else number(f"{label}.first_gid", first_gid, 0, integer=True)
+        gids = np.arange(first, first + int(counts.sum()), dtype=np.int64)
+        c0 = self.next_clump_id() if first_id is None else number(f"{label}.first_id", first_id, 0, integer=True)
+        ids = np.arange(c0, c0 + n, dtype=np.int64)
+        if set(ids.tolist()) & set(self._clump_ids):
+            raise InputError(f"{label}.first_id = {c0}: clump ids from {c0} are already taken")
+        if boolean(f"{label}.breakable", breakable):
+            w = per_clump(f"{label}.angvel", angvel, n)
+            if angmom is not None or np.any(w != 0.0):
+                raise InputError(f"{label}.angvel: a breakable clump's members are free spheres; give them vel only")
+            boolean(f"{label}.stress_free", stress_free)
+            mvel, mw = np.repeat(v, counts, axis=0), np.zeros((int(counts.sum()), 3))
+        else:
+            mass_settings(label, mass_model, discretization, samples)
+            w = per_clump(f"{label}.angvel", angvel, n)
+            lm = None if angmom is None else per_clump(f"{label}.angmom", angmom, n)
+            rho = self.materials.density()[m]
+            if mass_model != "members" and len(np.unique(rho)) > 1:
+                raise InputError(
+                    f"{label}.material: mass_model {mass_model!r} needs one density for all members of a clump"
+                )
+            clumps, mem, mvel, mw = rigid_rows(sets, rho, ids, gids, v, w, lm, mass_model, discretization, samples,
+                                               number(f"{label}.seed", seed, 0, integer=True))
+        pos = np.concatenate([p for p, _, _ in sets])
+        radius = np.concatenate([r for _, r, _ in sets])
+        self.add_spheres(pos, radius, m, vel=mvel, angvel=mw, gid=gids)
+        self._spheres[-1]["clump"][:] = np.repeat(ids, counts)
+        if breakable:
+            at = np.concatenate([[0], np.cumsum(counts)[:-1]])
+            g1 = np.concatenate([gids[a + i] for a, (_, _, (i, _)) in zip(at, sets)])
+            g2 = np.concatenate([gids[a + j] for a, (_, _, (_, j)) in zip(at, sets)])
+            self.add_bonds(np.stack([g1, g2], axis=1), stress_free=stress_free)
+        else:
+            self._clumps.append((clumps, mem))
+        self._clump_ids.extend(int(c) for c in ids)
+        return ids
+
+    def add_bonds(self, pairs, *, stress_free=True):
+        """Bond pairs of existing spheres, given by gid (``pairs`` [m, 2]); each pair must overlap
+        or touch when the scene is built (the bonds are made then, with the scene's law with
+        bonds: cohesive). ``stress_free``: as in `add_clumps`."""
+        a = np.asarray(pairs)
+        if a.ndim != 2 or a.shape[1] != 2 or (a.size and a.dtype.kind not in "iu"):
+            raise InputError(f"bonds: must be pairs of sphere gids [[gid1, gid2], ...], got {_short(pairs)}")
+        a = a.astype(np.int64)
+        if np.any(a[:, 0] == a[:, 1]):
+            raise InputError(f"bonds: a sphere cannot be bonded to itself (gid {int(a[a[:, 0] == a[:, 1]][0, 0])})")
+        self._bonds.append((a.min(axis=1), a.max(axis=1), boolean("bonds.stress_free", stress_free)))
+
+    def add_clump(self, member_pos, member_radius, material, **kw):
+        """Add one rigid clump (see `add_clumps`); returns its id."""
+        kw.setdefault("label", f"clumps[{len(self._clump_ids)}]")
+        return int(self.add_clumps([(member_pos, member_radius)], material, **kw)[0])
+
+    def add_breakable_clump(self, member_pos, member_radius, material, **kw):
+        """Add one breakable clump (bonded spheres, see `add_clumps`); returns its id."""
+        kw.setdefault("label", f"clumps[{len(self._clump_ids)}]")
+        return int(self.add_clumps([(member_pos, member_radius)], material, breakable=True, **kw)[0])
+
+    def add_clump_tables(self, clumps, members):
+        """Add rigid clumps given as tables (``clumps`` and ``clump_members`` of a checkpoint,
+        `pdem.checkpoint_state`), keeping their ids and state; their member spheres are added
+        with `add_sphere_columns`. Used between the stages of a multi-stage scene."""
+        clumps = {k: np.asarray(v).copy() for k, v in clumps.items()}
+        members = {k: np.asarray(v).copy() for k, v in members.items()}
+        if len(clumps["id"]):
+            self._clumps.append((clumps, members))
+            self._clump_ids.extend(int(c) for c in clumps["id"])
 
     def add_wall(self, axis, position, material, *, sense=0, velocity=(0.0, 0.0, 0.0), name=""):
         """Add an infinite axis-aligned plane x[axis] = position [m] (Yade's utils.wall)."""
@@ -249,9 +388,11 @@ class Scene:
     def _check_initial_overlaps(self, cols):
         from .neighbors import build_sphere_pairs
 
-        pos, r, gid = cols["pos"], cols["radius"], cols["gid"]
+        pos, r, gid, cl = cols["pos"], cols["radius"], cols["gid"], cols["clump"]
         n = len(gid)
         pi_, pj = build_sphere_pairs(pos, r, gid, n, n, 0.0, 2.0 * r.max(), 8 * n + 1000)
+        same = (cl[pi_] >= 0) & (cl[pi_] == cl[pj])  # members of one clump overlap by design
+        pi_, pj = pi_[~same], pj[~same]
         if len(pi_):
             d = np.linalg.norm(pos[pj] - pos[pi_], axis=1)
             over = r[pi_] + r[pj] - d
@@ -282,12 +423,19 @@ class Scene:
         if len(self.materials) == 0:
             raise InputError("materials: the scene defines no material")
         cols = self.spheres()
+        clumps, members = self.clump_tables()
+        if clumps is not None:
+            try:
+                check_tables(cols, clumps, members)
+            except ValueError as exc:
+                raise InputError(f"clumps: {exc}") from None
         if not self.settings["allow_initial_overlap"]:
             self._check_initial_overlaps(cols)
         else:
             self._check_coincident_centres(cols)
         s = self.settings
         skin = s["skin"] if s["skin"] is not None else 0.25 * float(np.mean(cols["radius"]))
+        bonds = self._bond_rows(cols, skin) if self._bonds else None
         if domain is None:
             if comm is None:
                 from .parallel.comm import SerialComm
@@ -301,7 +449,14 @@ class Scene:
                 domain = SlabDomain(comm, axis=s["slab_axis"])
                 domain.check_rank_count(cols, skin)
         particles = Particles(len(cols["gid"]) if domain.comm.size == 1 else 16)
-        domain.distribute(particles, cols)
+        rigid = None
+        if clumps is None:
+            domain.distribute(particles, cols)
+        else:
+            domain.distribute(particles, cols, owner_positions(cols, clumps, members))
+            rigid = Clumps(extent_of(members))
+            rigid.set_rows(clumps, members)
+            rigid.keep(domain.owns(rigid.pos))
         guard = Guard.for_scene(self.walls, cols["pos"], s.get("domain"))
         sim = Simulation(
             particles=particles,
@@ -323,10 +478,60 @@ class Scene:
             domain=domain,
             spec=json.loads(json.dumps(self.spec())),
             guard=guard,
+            clumps=rigid,
+            bonds=bonds,
         )
         if not s["allow_initial_overlap"]:
             check_initial_overlaps(sim)
         return sim
+
+    def clump_tables(self):
+        """(clumps, clump_members): the declared rigid clumps as global tables, or (None, None)."""
+        if not self._clumps:
+            return None, None
+        clumps = {k: np.concatenate([c[k] for c, _ in self._clumps]) for k in self._clumps[0][0]}
+        members = {k: np.concatenate([m[k] for _, m in self._clumps]) for k in self._clumps[0][1]}
+        return clumps, members
+
+    def _bond_rows(self, cols, skin):
+        """(key, params, history) of the bonds of the breakable clumps, made now."""
+        law = self.law
+        if not hasattr(law, "bond_rows"):
+            raise InputError(f"simulation.law = {law.NAME!r}: breakable clumps need a contact law with bonds "
+                             "(law = 'cohesive')")
+        props = self.materials.props()
+        gid = cols["gid"]
+        order = np.argsort(gid, kind="stable")
+
+        def row_of(g):
+            return order[np.searchsorted(gid[order], g)]
+
+        parts = []
+        for g1, g2, stress_free in self._bonds:
+            both = np.concatenate([g1, g2])
+            at = np.minimum(np.searchsorted(gid[order], both), len(gid) - 1)
+            if np.any(gid[order][at] != both):
+                raise InputError(f"bonds: gid {int(both[gid[order][at] != both][0])} is not a sphere of the scene")
+            check_bond_strengths(law, props, self.material_names, np.unique(cols["material"][row_of(both)]))
+            part = bonded_rows(law, props, cols["pos"], cols["radius"], cols["material"], g1, g2, row_of,
+                               stress_free)
+            reach = cols["radius"][row_of(g1)] + cols["radius"][row_of(g2)]
+            apart = part[3] < -TOUCH * reach
+            if np.any(apart):
+                k = int(np.flatnonzero(apart)[0])
+                raise InputError(f"bonds: spheres gid {int(g1[k])} and {int(g2[k])} are {-part[3][k]:.4g} m apart; "
+                                 "a bond needs them to overlap or touch")
+            parts.append(part)
+        key, params, history = (np.concatenate([p[k] for p in parts]) for k in range(3))
+        stretch = law.max_stretch(params, history)
+        if len(stretch) and stretch.max() >= skin:
+            k = int(np.argmax(stretch))
+            raise InputError(
+                f"simulation.skin = {skin:.4g} m: the bond between spheres gid {int(key[k] >> 32)} and "
+                f"{int(key[k] & 0xFFFFFFFF)} stretches up to {stretch[k]:.4g} m before it breaks, more than "
+                "the skin (it would leave the neighbour list); set a larger skin"
+            )
+        return key, params, history
 
 
 def _broadcast(label, value, n):

@@ -3,21 +3,25 @@
 One step: (rebuild neighbours and ghosts if some body moved more than skin/2) → contact forces of
 every contact kind the scene has (`Simulation.kinds`: sphere pairs, then walls, facets, boxes;
 loops generated from the geometry and the scene's law, `pdem.contact`) → sums per body in a
-fixed order (`pdem.forces`) → leapfrog (damped only if the scene asks) → move walls, facets and
-boxes → ghost update. Δt is fixed or re-estimated every `dt_interval` steps (`pdem.timestep`);
-every `check_interval` steps the state is checked for blow-up (`pdem.diagnostics`), and every
-step for runaway bodies and overlaps (`pdem.guard`, folded into the rebuild test). Global
+fixed order (`pdem.forces`; rigid clumps then sum their members', `pdem.clumps`) → leapfrog
+(damped only if the scene asks; clumps by Yade's aspherical integrator, which places their
+members) → move walls, facets and boxes → ghost update. Δt is fixed or re-estimated every
+`dt_interval` steps (`pdem.timestep`); every `check_interval` steps the state is checked for
+blow-up (`pdem.diagnostics`), and every step for runaway bodies and overlaps (`pdem.guard`,
+folded into the rebuild test). Global
 reductions go through the domain's communicator (exact sums, so they do not depend on the rank
 count). Checkpoint tables: `pdem.checkpoint_state`.
 
 Read API (owned bodies of this rank; every method is local unless it says collective):
-`bodies()`, `body(gid)`, `contacts()`, `wall_index(name)`, `facet_index(name)`, `box_index(name)`.
+`bodies()`, `body(gid)`, `clumps_table()`, `contacts()`, `wall_index(name)`, `facet_index(name)`,
+`box_index(name)`.
 """
 import time as _time
 
 import numpy as np
 
 from . import checkpoint_state, diagnostics, integrator, neighbors, timestep
+from .clumps import Clumps
 from .contact.kinds import make_kinds
 from .guard import Guard
 from .state import DOF_ALL, FIELDS
@@ -48,7 +52,7 @@ class Simulation:
 
     def __init__(self, *, particles, law, materials, walls, facets, boxes, gravity, damping, dt, dt_safety,
                  dt_interval, pwave_factor, skin, check_interval, max_overlap_ratio, energy_check, domain, spec,
-                 guard=None):
+                 guard=None, clumps=None, bonds=None):
         self.particles = particles
         self.law = law
         self.materials = materials
@@ -80,6 +84,13 @@ class Simulation:
         self.energy_reference = None
         self.last_dt = None  # Δt of the last step taken (sim.dt may already be the next one's) [s]
         self.kinds = make_kinds(law, walls, facets, boxes)
+        # rigid clumps owned here (pdem.clumps), None in a scene without clumps
+        self.clumps = clumps
+        if clumps is not None:
+            clumps.attach(particles)
+        if bonds is not None:  # bonds of breakable clumps (pdem.bonds): contacts made before the first step
+            key, params, history = bonds
+            self.kind("sphere_sphere").contacts.add_carried(key, np.ones(len(key), np.int8), params, history)
         # a box's load and weight do external work; the flag must be the same on every rank
         self.moving_boundaries = bool(self.comm.any_flag(bool(
             (len(walls) and np.any(walls.velocity)) or (len(facets) and np.any(facets.velocity))
@@ -107,6 +118,8 @@ class Simulation:
         order = neighbors.cell_order(p.pos, p.n_local, cell, 8 * p.n_local + 1000)
         p.permute_local(order)
         self.domain.renumber_owned(order)
+        if self.clumps is not None:
+            self.clumps.attach(p)
         for kind in self.kinds:
             kind.rebuild(self, cell)
         p.pos_at_rebuild[: p.n_total] = p.pos[: p.n_total]
@@ -135,6 +148,8 @@ class Simulation:
             kind.add_forces(self)
         if self.boxes is not None:
             self.boxes.contact_force = self.kind("sphere_box").totals(self.comm)
+        if self.clumps is not None:
+            self.clumps.sum_forces(self.particles)
 
     def integrate(self):
         p = self.particles
@@ -144,6 +159,8 @@ class Simulation:
         else:
             integrator.leapfrog(p.n_local, p.pos, p.vel, p.angvel, p.force, p.torque, p.mass, p.inertia, p.blocked,
                                 self.gravity, self.dt)
+        if self.clumps is not None:  # moves the clumps and overwrites their members' rows
+            self.clumps.integrate(p, self.gravity, self.damping, self.dt)
         if len(self.walls):
             before = self.walls.position.copy()
             self.walls.move(self.dt)
@@ -209,6 +226,16 @@ class Simulation:
         cols = {k: getattr(p, k)[: p.n_local][order].copy() for k in (*FIELDS, "force", "torque")}
         return cols
 
+    def clumps_table(self):
+        """The rigid clumps owned by this rank, sorted by id: ``id``, ``pos`` [m], ``vel`` [m/s],
+        ``angvel`` [rad/s], ``angmom`` [kg·m²/s], ``ori`` (w, x, y, z), ``mass`` [kg],
+        ``inertia`` (principal) [kg·m²], ``aspherical``, ``force`` and ``torque`` (summed over
+        the members in the last step, before damping) [N], [N·m]; empty without clumps."""
+        c = self.clumps if self.clumps is not None else Clumps(0.0)
+        out, _ = c.table()
+        out.update(force=c.force.copy(), torque=c.torque.copy())
+        return out
+
     def body(self, gid):
         """State of the owned body ``gid`` as a dict of values, or None if this rank does not own it."""
         p = self.particles
@@ -247,6 +274,8 @@ class Simulation:
             out["force"] = c.force[rows].copy()
         for name, col in law.PARAM_NAMES.items():
             out.setdefault(name, params[:, col].copy())
+        for name, col in getattr(law, "HISTORY_NAMES", {}).items():
+            out.setdefault(name, history[:, col].copy())
         return out
 
     def wall_index(self, name):

@@ -11,6 +11,8 @@ Units: pos [m], vel [m/s], angvel [rad/s], force [N], torque [N·m], radius [m],
 inertia [kg·m²] (a sphere's scalar moment 2/5·m·r², Yade's ``utils.sphere``).
 ``blocked`` is a bit mask of blocked degrees of freedom: bits 0–2 translations x, y, z, bits 3–5
 rotations; 63 means fixed. A blocked body still moves with its (prescribed) velocity.
+``clump`` is the id of the clump the sphere belongs to (a rigid clump, `pdem.clumps`, or a
+breakable clump whose members are held by bonds), -1 for a sphere that never was in a clump.
 Imports nothing from pdem but numpy.
 """
 import numpy as np
@@ -28,13 +30,31 @@ FIELDS = {
     "inertia": (np.float64, ()),
     "material": (np.int64, ()),
     "blocked": (np.int64, ()),
+    "clump": (np.int64, ()),
 }
+# value of a column a table may lack (tables written before the column existed)
+FIELD_DEFAULTS = {"clump": -1}
 # accumulators and bookkeeping that are rebuilt, never stored or sent
 SCRATCH = {
     "force": (np.float64, (3,)),
     "torque": (np.float64, (3,)),
     "pos_at_rebuild": (np.float64, (3,)),
 }
+
+
+def with_defaults(cols):
+    """``cols`` (a dict of FIELDS columns) with the columns of `FIELD_DEFAULTS` it lacks filled in."""
+    missing = [k for k in FIELD_DEFAULTS if k not in cols]
+    if not missing:
+        return cols
+    n = len(cols["gid"])
+    out = dict(cols)
+    for k in missing:
+        dtype, shape = FIELDS[k]
+        out[k] = np.full((n,) + shape, FIELD_DEFAULTS[k], dtype)
+    return out
+
+
 # what a ghost needs every step (pdem.parallel sends these)
 GHOST_STEP_FIELDS = ("pos", "vel", "angvel")
 

@@ -14,7 +14,9 @@
   viscous damping raises them by 1/(sqrt(1 + η²) − η)², which turns 2/ω into the damped
   critical step (2/ω)(sqrt(1 + η²) − η), and adds its rolling stiffness), the normal from the
   contact's history.
-Walls, facets, boxes and stiff materials (steel at 10 E) are all in the sums (every contact
+A rigid clump adds its own estimate (`pdem.clumps.clump_dt`): M/K_t and I_min/K_r with every
+member contact's k_n + k_s at its lever from the clump centre (the members' own estimate alone
+misses the longer levers). Walls, facets, boxes and stiff materials (steel at 10 E) are all in the sums (every contact
 kind of `Simulation.kinds`, in the order forces are summed). The simulation never lets Δt
 exceed Δt_p itself (`update_dt`): in a loose cloud the few contacts present allow a long step
 that the many contacts formed before the next estimate do not.
@@ -24,6 +26,7 @@ from math import pi, sqrt
 import numpy as np
 from numba import njit
 
+from .clumps import add_member_stiffness
 from .state import DOF_ALL
 
 
@@ -97,12 +100,18 @@ def contact_dt(sim):
     nl = p.n_local
     kt = np.zeros((nl, 3))
     kr = np.zeros((nl, 3))
+    kmember = np.zeros(nl) if sim.clumps is not None else None
     for kind in sim.kinds:
         c = kind.contacts
         kn, ks = sim.law.dt_stiffness(c.params[: c.n], c.history[: c.n], c.overlap[: c.n])
         add_stiffness(nl, p.blocked, p.radius, kind.ptr, kind.rows, c.state, kn, ks, c.history, kind.normal_column,
                       kt, kr)
-    return stiffness_dt(nl, p.mass, p.inertia, p.blocked, kt, kr)
+        if kmember is not None:
+            add_member_stiffness(nl, kind.ptr, kind.rows, c.state, kn, ks, kmember)
+    dt = stiffness_dt(nl, p.mass, p.inertia, p.blocked, kt, kr)
+    if kmember is not None:  # a clump turns about its centre: levers up to its extent
+        dt = min(dt, sim.clumps.stiffness_dt(p, kmember))
+    return dt
 
 
 def update_dt(sim, force=False):

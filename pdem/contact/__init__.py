@@ -29,6 +29,14 @@ Added for the viscous and Hertz–Mindlin laws (issue 12):
 - ``force`` gets ``wrx, wry, wrz`` = ω2 − ω1 (relative spin) and returns the moment on body 1;
   with ``MOMENT`` the loop applies it as a couple (+m on body 1, −m on body 2).
 
+Optional (a law without them behaves as if they were absent/False): ``TENSILE`` and the
+njit-inline ``holds(p, fresh, pen, params, history)`` (real contacts with negative overlap live
+on while ``holds``; see `pdem.contact.loops`), ``CONTACT_POINT_LEVER`` (torques about the
+contact point), ``HISTORY_NAMES`` (name -> history column, also reported by
+`Simulation.contacts`) and, for laws with bonds, ``bond_rows(props, mat1, mat2, r1, r2, pen,
+stress_free) -> (params, history)``, ``bond_strengths(props, mat) -> (c_N, c_T)`` and
+``intact(params, history) -> bool mask`` (`pdem.bonds`, `pdem.fragments`).
+
 A new law is its own module plus one line in `LAWS` (or `register_law(module)` at run time, as
 tests/unit/test_law_plugin.py does). Importing this package compiles nothing.
 """
@@ -38,7 +46,7 @@ from types import ModuleType
 from ..errors import InputError
 
 LAWS = {"linear": "pdem.contact.linear", "viscous": "pdem.contact.viscous",
-        "hertz_mindlin": "pdem.contact.hertz_mindlin"}
+        "hertz_mindlin": "pdem.contact.hertz_mindlin", "cohesive": "pdem.contact.cohesive"}
 REQUIRED = ("NAME", "N_PARAMS", "HISTORY", "MOMENT", "MATERIAL_KEYS", "PWAVE_KEY", "FRICTION_KEY", "ip2", "force",
             "stiffness", "elastic_energy", "contact_forces", "PARAM_NAMES", "CONTACT_POINT_VELOCITY", "PAIR_KEYS",
             "combine", "dt_stiffness", "pwave_modulus")

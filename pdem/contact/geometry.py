@@ -6,8 +6,9 @@ loop (`pdem.contact.loops`) calls; a geometry knows nothing of forces (that is t
 
 ``contact(fresh, i, j, pos, radius, other_f, other_i) -> (status, nx, ny, nz, pen)``
     Ig2: `SKIP` (no contact and none before: the row is clear, nothing to do), `OPEN` (a
-    contact that opened: Law2 deletes it) or `CONTACT` with the unit normal n (from body 1 to
-    body 2) and the overlap pen [m].
+    contact that opened, pen < 0: a frictional Law2 deletes it, a law with bonds
+    (``TENSILE``) decides) or `CONTACT`, both with the unit normal n (from body 1 to body 2)
+    and the overlap pen [m].
 ``ip2_args(i, j, radius, material, mass, other_i) -> (mat1, mat2, r1, r2, m1, m2)``
     what Ip2 sees at creation: the materials of body 1 and 2 in Yade's order (a wall or facet
     is body 1), the reference radii (sphere: r; wall: r and r; facet: 2r and r) and the masses
@@ -26,6 +27,10 @@ loop (`pdem.contact.loops`) calls; a geometry knows nothing of forces (that is t
     get this one.
 ``levers(i, j, pen, radius) -> (l1, l2)`` [m]: torque lever arms r − pen/2 (Law2's
     sphericalBodies branch; the facet's body-1 radius is 2r but only the sphere's lever is used).
+``contact_point(i, j, nx, ny, nz, pen, pos, radius, other_f) -> (cx, cy, cz)`` [m]: Yade's
+    contactPoint, for laws whose torque lever is (contact point − centre) (``CONTACT_POINT_LEVER``,
+    the cohesive law): sphere–sphere x1 + (r1 − pen/2) n; wall: the centre projected on the
+    plane; facet and box: x2 − (r − pen/2) n.
 ``TWO_PARTICLES``: body 1 is a particle (its row gets +f and torque_i, body 2 torque_j);
     otherwise body 1 is a boundary and the row holds the force on the sphere (−f) and its torque.
 
@@ -104,9 +109,7 @@ def _ss_contact(fresh, i, j, pos, radius, other_f, other_i):
         return SKIP, 0.0, 0.0, 0.0, 0.0
     dist = sqrt(d2)
     pen = rs - dist
-    if pen < 0.0:
-        return OPEN, 0.0, 0.0, 0.0, pen
-    return CONTACT, dx / dist, dy / dist, dz / dist, pen
+    return OPEN if pen < 0.0 else CONTACT, dx / dist, dy / dist, dz / dist, pen
 
 
 @njit(inline="always", cache=True)
@@ -150,6 +153,12 @@ def _ss_levers(i, j, pen, radius):
     return radius[i] - 0.5 * pen, radius[j] - 0.5 * pen
 
 
+@njit(inline="always", cache=True)
+def _ss_contact_point(i, j, nx, ny, nz, pen, pos, radius, other_f):
+    lever = radius[i] - 0.5 * pen
+    return pos[i, 0] + lever * nx, pos[i, 1] + lever * ny, pos[i, 2] + lever * nz
+
+
 class SphereSphere:
     """Ig2_Sphere_Sphere_ScGeom (interactionDetectionFactor 1, noRatch)."""
 
@@ -161,6 +170,7 @@ class SphereSphere:
     relative_velocity = _ss_relative_velocity
     contact_velocity = _ss_contact_velocity
     levers = _ss_levers
+    contact_point = _ss_contact_point
 
 
 # ---------------------------------------------------------------------------- sphere–wall
@@ -172,11 +182,10 @@ def _wall_contact(fresh, s, w, pos, radius, other_f, other_i):
     if fresh and abs(dist) > r:
         return SKIP, 0.0, 0.0, 0.0, 0.0
     pen = -(abs(dist) - r)
-    if pen < 0.0:
-        return OPEN, 0.0, 0.0, 0.0, pen
     sense = other_i[w, 1]
     sign = (1.0 if dist > 0.0 else -1.0) if sense == 0 else (1.0 if sense == 1 else -1.0)
-    return (CONTACT, sign if a == 0 else 0.0, sign if a == 1 else 0.0, sign if a == 2 else 0.0, pen)
+    return (OPEN if pen < 0.0 else CONTACT, sign if a == 0 else 0.0, sign if a == 1 else 0.0, sign if a == 2 else 0.0,
+            pen)
 
 
 @njit(inline="always", cache=True)
@@ -196,6 +205,29 @@ def _wall_contact_velocity(s, w, nx, ny, nz, pen, pos, vel, angvel, radius, othe
                                   other_f[w, 3])
 
 
+@njit(inline="always", cache=True)
+def _wall_contact_point(s, w, nx, ny, nz, pen, pos, radius, other_f):
+    """The sphere centre projected on the plane."""
+    cx = pos[s, 0]
+    cy = pos[s, 1]
+    cz = pos[s, 2]
+    p = other_f[w, 0]
+    if nx != 0.0:
+        cx = p
+    elif ny != 0.0:
+        cy = p
+    else:
+        cz = p
+    return cx, cy, cz
+
+
+@njit(inline="always", cache=True)
+def _sphere_contact_point(s, b, nx, ny, nz, pen, pos, radius, other_f):
+    """x2 − (r − pen/2) n: Ig2_Facet_Sphere_ScGeom's contact point (the sphere is body 2)."""
+    lever = radius[s] - 0.5 * pen
+    return pos[s, 0] - lever * nx, pos[s, 1] - lever * ny, pos[s, 2] - lever * nz
+
+
 class SphereWall:
     """Ig2_Wall_Sphere_ScGeom: an infinite axis-aligned plane is body 1; contact point on the
     plane, radius1 = radius2 = r."""
@@ -208,6 +240,7 @@ class SphereWall:
     relative_velocity = _wall_relative_velocity
     contact_velocity = _wall_contact_velocity
     levers = _sphere_lever
+    contact_point = _wall_contact_point
 
 
 # ---------------------------------------------------------------------------- sphere–facet
@@ -274,9 +307,7 @@ def _facet_contact(fresh, s, f, pos, radius, other_f, other_i):
         pen = r - nn
     if fresh and not pen > 0.0:
         return SKIP, 0.0, 0.0, 0.0, 0.0
-    if pen < 0.0:  # a real contact that opened: Law2 deletes it
-        return OPEN, 0.0, 0.0, 0.0, pen
-    return CONTACT, nx, ny, nz, pen
+    return OPEN if pen < 0.0 else CONTACT, nx, ny, nz, pen  # OPEN: a real contact that opened
 
 
 @njit(inline="always", cache=True)
@@ -307,6 +338,7 @@ class SphereFacet:
     relative_velocity = _facet_relative_velocity
     contact_velocity = _facet_relative_velocity  # already at the contact point, no ratcheting factor
     levers = _sphere_lever
+    contact_point = _sphere_contact_point
 
 
 # ---------------------------------------------------------------------------- sphere–box
@@ -349,9 +381,7 @@ def _box_contact(fresh, s, b, pos, radius, other_f, other_i):
         else:
             nz = 1.0 if dz >= 0.0 else -1.0
             pen = r + gz
-    if pen < 0.0:
-        return OPEN, 0.0, 0.0, 0.0, pen
-    return CONTACT, nx, ny, nz, pen
+    return OPEN if pen < 0.0 else CONTACT, nx, ny, nz, pen
 
 
 @njit(inline="always", cache=True)
@@ -383,6 +413,7 @@ class SphereBox:
     relative_velocity = _box_relative_velocity
     contact_velocity = _box_contact_velocity
     levers = _sphere_lever
+    contact_point = _sphere_contact_point
 
 
 GEOMETRIES = {g.name: g for g in (SphereSphere, SphereWall, SphereFacet, SphereBox)}

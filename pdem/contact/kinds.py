@@ -14,6 +14,7 @@ Checkpoint tables are named ``contacts/<kind name>``.
 import numpy as np
 
 from .. import forces, neighbors
+from ..clumps import drop_same_clump
 from ..contacts import KEY_SHIFT_SPHERE, ContactList, index_pair_keys, sphere_pair_keys
 from .geometry import SphereBox, SphereFacet, SphereSphere, SphereWall
 from .loops import NORMAL_COLUMNS, make_pair_loop
@@ -80,6 +81,8 @@ class SpherePairs(ContactKind):
         p = sim.particles
         pi, pj = neighbors.build_sphere_pairs(p.pos, p.radius, p.gid, p.n_local, p.n_total, sim.skin, cell,
                                               8 * p.n_total + 1000)
+        if sim.clumps is not None:  # members of one rigid clump never touch each other
+            pi, pj = drop_same_clump(pi, pj, sim.clumps.row_clump)
         self.contacts.replace(pi, pj, sphere_pair_keys(pi, pj, p.gid), key_shift=KEY_SHIFT_SPHERE)
         c = self.contacts
         self.ptr, self.rows, self.first = neighbors.build_incidence(p.n_local, c.n, c.i, c.j, p.gid)

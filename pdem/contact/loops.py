@@ -12,9 +12,17 @@ clear the row of a contact that opened → Ip2 once, when the contact is new (pa
 creation step in the last parameter column) → ScGeom::precompute: orthonormal axis n_old × n and
 twist axis (Δt/2 n_old·(ω1+ω2)) n_old from the normal stored in the geometry's history columns,
 relative velocity (Yade's, with the ratcheting factor; or at the contact point without it for a
-law with ``CONTACT_POINT_VELOCITY``), its normal part vn passed on and removed, Δu_s = v_t Δt → Law2 → outputs
-per row: the force on
-body 1 (pairs of particles) or on the sphere (boundaries), torques, overlap. Rows are written
+law with ``CONTACT_POINT_VELOCITY``), its normal part vn passed on and removed, Δu_s = v_t Δt →
+Law2 → outputs per row: the force on body 1 (pairs of particles) or on the sphere (boundaries),
+torques, overlap.
+
+Two optional law constants change the loop (pruned at compile time): ``TENSILE`` (a law with
+bonds, `pdem.contact.cohesive`): a real contact whose overlap became negative is not deleted by
+the loop; the law's ``holds(p, fresh, pen, params, history)`` decides, after Ip2, whether the
+contact lives on this step (Yade's Law2 deletes the interaction and applies no force);
+``CONTACT_POINT_LEVER``: torques (cp − x1) × f on body 1 and −(cp − x2) × f on body 2 with the
+geometry's contact point (Law2_ScGeom6D_CohFrictPhys_CohesionMoment) instead of CundallStrack's
+(r − pen/2) n × f. Rows are written
 only by their own iteration (race-free under ``prange``); `pdem.forces` sums them per body in a
 fixed order. The loop returns the largest overlap over the smaller radius of its contacts
 [-] (a max reduction: read by the runaway guard, `pdem.guard`, every step).
@@ -25,7 +33,7 @@ updates per contact and made the wall loop 5x slower (measured when this was wri
 """
 from functools import lru_cache
 
-from numba import prange
+from numba import njit, prange
 
 from .. import vec
 from ..kernels import specialize
@@ -48,7 +56,7 @@ def pair_forces(n, pi, pj, state, params, history, force, torque_i, torque_j, ov
         status, nx, ny, nz, pen = GEOM_CONTACT(fresh, i, j, pos, radius, other_f, other_i)  # noqa: F821
         if status == SKIP:
             continue  # a row with state 0 is already clear (ContactList.replace)
-        if status == OPEN:
+        if status == OPEN and not LAW_TENSILE:  # noqa: F821  (Law2 deletes an opened contact)
             state[p] = 0
             for c in range(history.shape[1]):
                 history[p, c] = 0.0
@@ -63,6 +71,16 @@ def pair_forces(n, pi, pj, state, params, history, force, torque_i, torque_j, ov
             LAW_IP2(props, ma, mb, ra, rb, m1, m2, params, p)  # noqa: F821
             params[p, LAW_N_PARAMS] = step  # noqa: F821
             state[p] = 1
+        if LAW_TENSILE and not LAW_HOLDS(p, fresh, pen, params, history):  # noqa: F821  (the law deletes it)
+            state[p] = 0
+            for c in range(history.shape[1]):
+                history[p, c] = 0.0
+            for c in range(3):
+                force[p, c] = 0.0
+                torque_i[p, c] = 0.0
+                torque_j[p, c] = 0.0
+            overlap[p] = 0.0
+            continue
         wsx, wsy, wsz, wrx, wry, wrz = GEOM_SPINS(i, j, angvel)  # noqa: F821
         if fresh:
             ox = oy = oz = tx = ty = tz = 0.0
@@ -88,18 +106,35 @@ def pair_forces(n, pi, pj, state, params, history, force, torque_i, torque_j, ov
         history[p, LAW_HISTORY] = nx  # noqa: F821
         history[p, LAW_HISTORY + 1] = ny  # noqa: F821
         history[p, LAW_HISTORY + 2] = nz  # noqa: F821
-        cx, cy, cz = cross3(nx, ny, nz, fx, fy, fz)
-        l1, l2 = GEOM_LEVERS(i, j, pen, radius)  # noqa: F821
+        if LAW_CONTACT_POINT_LEVER:  # noqa: F821  (T1 = (cp − x1) × f, T2 = −(cp − x2) × f)
+            cpx, cpy, cpz = GEOM_CONTACT_POINT(i, j, nx, ny, nz, pen, pos, radius, other_f)  # noqa: F821
+            ax, ay, az = cross3(cpx - pos[i, 0], cpy - pos[i, 1], cpz - pos[i, 2], fx, fy, fz)
+            if GEOM_TWO_PARTICLES:  # noqa: F821
+                t1x, t1y, t1z = ax, ay, az
+                bx, by, bz = cross3(cpx - pos[j, 0], cpy - pos[j, 1], cpz - pos[j, 2], fx, fy, fz)
+                t2x, t2y, t2z = -bx, -by, -bz
+            else:  # the sphere (row i) is body 2
+                t1x = t1y = t1z = 0.0
+                t2x, t2y, t2z = -ax, -ay, -az
+        else:  # CundallStrack's sphericalBodies branch: T = (r − pen/2) n × f on both
+            cx, cy, cz = cross3(nx, ny, nz, fx, fy, fz)
+            l1, l2 = GEOM_LEVERS(i, j, pen, radius)  # noqa: F821
+            t1x = l1 * cx
+            t1y = l1 * cy
+            t1z = l1 * cz
+            t2x = l2 * cx
+            t2y = l2 * cy
+            t2z = l2 * cz
         if GEOM_TWO_PARTICLES:  # noqa: F821
             force[p, 0] = fx
             force[p, 1] = fy
             force[p, 2] = fz
-            torque_i[p, 0] = l1 * cx
-            torque_i[p, 1] = l1 * cy
-            torque_i[p, 2] = l1 * cz
-            torque_j[p, 0] = l2 * cx
-            torque_j[p, 1] = l2 * cy
-            torque_j[p, 2] = l2 * cz
+            torque_i[p, 0] = t1x
+            torque_i[p, 1] = t1y
+            torque_i[p, 2] = t1z
+            torque_j[p, 0] = t2x
+            torque_j[p, 1] = t2y
+            torque_j[p, 2] = t2z
             if LAW_MOMENT:  # noqa: F821  (a couple: +m on body 1, -m on body 2)
                 torque_i[p, 0] += mx
                 torque_i[p, 1] += my
@@ -111,9 +146,9 @@ def pair_forces(n, pi, pj, state, params, history, force, torque_i, torque_j, ov
             force[p, 0] = -fx
             force[p, 1] = -fy
             force[p, 2] = -fz
-            torque_i[p, 0] = l2 * cx
-            torque_i[p, 1] = l2 * cy
-            torque_i[p, 2] = l2 * cz
+            torque_i[p, 0] = t2x
+            torque_i[p, 1] = t2y
+            torque_i[p, 2] = t2z
             if LAW_MOMENT:  # noqa: F821
                 torque_i[p, 0] -= mx
                 torque_i[p, 1] -= my
@@ -122,6 +157,11 @@ def pair_forces(n, pi, pj, state, params, history, force, torque_i, torque_j, ov
         r_min = min(radius[i], radius[j]) if GEOM_TWO_PARTICLES else radius[i]  # noqa: F821
         worst = max(worst, pen / r_min)
     return worst
+
+
+@njit(inline="always", cache=True)
+def _always(p, fresh, pen, params, history):
+    return True
 
 
 @lru_cache(maxsize=None)
@@ -136,11 +176,16 @@ def make_pair_loop(geometry, law):
         "GEOM_CONTACT_VELOCITY": geometry.contact_velocity,
         "GEOM_LEVERS": geometry.levers,
         "GEOM_TWO_PARTICLES": geometry.TWO_PARTICLES,
+        "GEOM_CONTACT_POINT": geometry.contact_point,
         "LAW_IP2": law.ip2,
         "LAW_FORCE": law.force,
         "LAW_N_PARAMS": law.N_PARAMS,
         "LAW_HISTORY": law.HISTORY,
         "LAW_MOMENT": law.MOMENT,
         "LAW_CONTACT_POINT": law.CONTACT_POINT_VELOCITY,
+        # optional parts of the protocol (laws without bonds need not define them)
+        "LAW_TENSILE": getattr(law, "TENSILE", False),
+        "LAW_HOLDS": getattr(law, "holds", _always),
+        "LAW_CONTACT_POINT_LEVER": getattr(law, "CONTACT_POINT_LEVER", False),
     }
     return specialize(pair_forces, f"{geometry.name}__{law.NAME}", bindings, sources=(geometry_module, law, vec))

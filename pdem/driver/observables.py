@@ -1,8 +1,8 @@
 """Global scalar observables of a running simulation, reduced so that they do not depend on
 the rank count (exact sums, max/min reductions).
 
-- unbalanced force ratio: mean over free bodies of |F + m g| divided by the mean contact force
-  magnitude (Yade's ``unbalancedForce``) [-]
+- unbalanced force ratio: mean over free bodies (a rigid clump is one body) of |F + m g| divided
+  by the mean contact force magnitude (Yade's ``unbalancedForce``) [-]
 - wall forces: total force of the spheres on each wall [N] (exact sums over contacts)
 - top of the bed: max over spheres of z + r [m]
 - the largest overlap of any real contact over the smaller radius of its pair [-]
@@ -26,11 +26,15 @@ def unbalanced_force(sim):
     p = sim.particles
     nl = p.n_local
     free = p.blocked[:nl] != DOF_ALL
+    if sim.clumps is not None:  # a rigid clump is one body: |F + M g| of the clump, not of its members
+        free &= sim.clumps.row_clump[:nl] < 0
     net = p.force[:nl][free] + p.mass[:nl][free, None] * sim.gravity
+    if sim.clumps is not None:
+        net = np.concatenate([net, sim.clumps.net_forces(sim.gravity)])
     body = np.linalg.norm(net, axis=1)
     mags = [np.linalg.norm(kind.contacts.force[kind.owned_rows(nl)], axis=1) for kind in sim.kinds]
     mags = np.concatenate(mags) if mags else np.zeros(0)
-    n_body = sim.comm.allreduce_sum_int(int(free.sum()))
+    n_body = sim.comm.allreduce_sum_int(len(body))
     n_cont = sim.comm.allreduce_sum_int(len(mags))
     if n_cont == 0 or n_body == 0:
         return 1.0

@@ -3,7 +3,8 @@
 `run_scene_file(path, out_dir)` runs on every rank. It writes to `out_dir`: ``results.h5``
 (`analysis.schema`, kind from run.kind: /series of time, energies (kinetic, elastic,
 potential, their total), contacts, the largest overlap, unbalanced force, floor force; root
-attribute ``external_work``), ``snapshots.h5``/``.xmf`` if the scene asks, checkpoints in ``checkpoints/``
+attribute ``external_work``; /fragments every run.fragments_every steps if set,
+`pdem.driver.fragments`), ``snapshots.h5``/``.xmf`` if the scene asks, checkpoints in ``checkpoints/``
 (`pdem.driver.runloop.RunLoop`; always one at the end), ``results.png`` and ``summary.txt``
 with the timing table. Started again on the same directory, a run resumes from the newest
 valid checkpoint and appends to its results; ``fresh`` removes the old checkpoints first.
@@ -11,7 +12,7 @@ valid checkpoint and appends to its results; ``fresh`` removes the old checkpoin
 import time as _time
 from pathlib import Path
 
-from analysis.schema import RUN_SERIES
+from analysis.schema import RUN_SERIES, fragment_label
 
 from ..version import __version__
 from ..config import run_settings, scene_from_dict
@@ -19,6 +20,7 @@ from ..diagnostics import check_finite
 from ..io.checkpoint import CheckpointError, read_checkpoint
 from ..io.snapshots import SnapshotWriter
 from . import observables
+from .fragments import FragmentRecorder
 from .plots import plot_series
 from .results import finite_row, series_writer, write_root_attrs
 from .runloop import RunLoop, prepare_output, resume_point
@@ -72,6 +74,7 @@ def run_scene_file(path, doc, out_dir, comm, steps=None, fresh=False):
     snaps = (SnapshotWriter(out, comm=comm, append=resumed, restart_step=sim.step if resumed else None,
                             log=lambda m: print(m, flush=True))
              if run["snapshot_every"] else None)
+    frags = FragmentRecorder(results, comm, every=run["fragments_every"]) if run["fragments_every"] else None
 
     def on_step(sim):
         if run["output_every"] and sim.step % run["output_every"] == 0:
@@ -79,11 +82,15 @@ def run_scene_file(path, doc, out_dir, comm, steps=None, fresh=False):
         if snaps and sim.step % run["snapshot_every"] == 0:
             check_finite(sim)
             write_snapshot(snaps, sim)
+        if frags is not None:
+            frags.on_step(sim)
 
     if not resumed:
         series.append(sample(sim))
         if snaps:
             write_snapshot(snaps, sim)
+        if frags is not None:
+            frags.record(sim, fragment_label(sim.step))
     if sim.step > n_steps:
         loop.log(f"the checkpoint is at step {sim.step}, beyond the {n_steps} steps asked: nothing to run")
     loop.advance(sim, n_steps - sim.step, on_step=on_step, last_step=n_steps)

@@ -16,8 +16,11 @@ checkpoint under the scene's name) is where the pipeline is: the stage index, wh
 opening operations were applied, its start time, the next free gid, a summary row per finished
 stage and the scene's own entries.
 
-Table operations (`empty_tables`, `remove_above`, `append_bodies`, `next_free_gid`) work on the
-global tables of `pdem.checkpoint_state` and are pure functions.
+Table operations (`empty_tables`, `remove_above`, `append_bodies`, `next_free_gid`,
+`next_free_clump`, `clump_tables`, `append_tables`) work on the global tables of
+`pdem.checkpoint_state` and are pure functions. A stage with clumps declares them in its scene
+with `Scene.add_sphere_columns(tables["particles"])` and `Scene.add_clump_tables(tables["clumps"],
+tables["clump_members"])`; bonds travel in ``contacts/sphere_sphere``.
 """
 import time as _time
 from pathlib import Path
@@ -43,18 +46,60 @@ def empty_tables():
 
 
 def remove_above(tables, height):
-    """Drop the spheres whose top z + r is above ``height`` [m]; returns (tables, removed)."""
+    """Drop the spheres whose top z + r is above ``height`` [m], and whole clumps (rigid or
+    breakable: every sphere with that clump id) of which some member is; returns (tables,
+    removed spheres). Rigid clumps leave the ``clumps``/``clump_members`` tables with them."""
     p = tables["particles"]
-    keep = p["pos"][:, 2] + p["radius"] <= height
+    above = p["pos"][:, 2] + p["radius"] > height
+    clump = p.get("clump")
+    cut = np.zeros(0, np.int64)
+    if clump is not None:
+        cut = np.unique(clump[above & (clump >= 0)])
+        above |= np.isin(clump, cut)
+    keep = ~above
     out = dict(tables)
     out["particles"] = {k: v[keep] for k, v in p.items()}
-    return out, int((~keep).sum())
+    if "clumps" in tables:
+        kept = ~np.isin(tables["clumps"]["id"], cut)
+        out["clumps"] = {k: v[kept] for k, v in tables["clumps"].items()}
+        mk = ~np.isin(tables["clump_members"]["clump"], cut)
+        out["clump_members"] = {k: v[mk] for k, v in tables["clump_members"].items()}
+    return out, int(above.sum())
 
 
 def next_free_gid(tables, at_least=0):
     """One past the largest gid of the tables (or ``at_least`` if larger)."""
     gids = tables["particles"]["gid"]
     return max(int(at_least), int(gids.max()) + 1 if len(gids) else 0)
+
+
+def next_free_clump(tables, at_least=0):
+    """One past the largest clump id of the tables' spheres (or ``at_least`` if larger)."""
+    clump = tables["particles"].get("clump", np.zeros(0, np.int64))
+    return max(int(at_least), int(clump.max()) + 1 if len(clump) else 0)
+
+
+def clump_tables(scene, grains, material, first_gid, first_clump, **kw):
+    """The tables of new clumps (`Scene.add_clumps` ``grains``, ``material`` and ``kw``:
+    breakable, stress_free, vel, mass_model ...) with member gids from ``first_gid`` and clump
+    ids from ``first_clump``: ``particles``, and for rigid clumps ``clumps`` and
+    ``clump_members``, for breakable ones the bonds as ``contacts/sphere_sphere`` rows.
+    ``scene`` is a `Scene` with the run's law and materials (its bodies are ignored; it is left
+    unchanged)."""
+    sc = scene.empty_like()
+    sc.add_clumps(grains, material, first_gid=first_gid, first_id=first_clump, **kw)
+    return sc.body_tables()
+
+
+def append_tables(tables, new):
+    """``tables`` with the rows of ``new`` (e.g. `clump_tables`) appended, table by table."""
+    out = dict(tables)
+    for name, cols in new.items():
+        if name not in out:
+            out[name] = {k: np.asarray(v).copy() for k, v in cols.items()}
+        else:
+            out[name] = {k: np.concatenate([np.asarray(out[name][k]), np.asarray(cols[k])]) for k in out[name]}
+    return out
 
 
 def append_bodies(tables, pos, radius, density, material, first_gid):

@@ -4,6 +4,10 @@ Owns: the slab edges along one axis, migration of bodies (with every real contac
 them: key, state, params, history) to the rank whose slab holds their centre, the ghost layer
 (copies of the neighbours' bodies within ``halo = 2 r_max + skin`` of this slab, refreshed every
 step) and optional dynamic load balancing (edges moved to equalise owned bodies plus contacts).
+A rigid clump (`pdem.clumps`) is owned, with all its members, by the rank whose slab holds the
+clump's centre: its members may stick out of that slab by up to the clump extent e (the largest
+member distance from a clump centre), so the halo is 2 r_max + skin + 2 e and the clump rows
+migrate with their members.
 
 Why the trajectory does not depend on the rank count: a sphere pair is computed by every rank
 that owns one of its bodies, from exact copies of both bodies, and each rank sums forces only for
@@ -18,7 +22,9 @@ import time as _time
 
 import numpy as np
 
+from pdem.clumps import unpack_clumps
 from pdem.contacts import KEY_SHIFT_INDEX, KEY_SHIFT_SPHERE
+from pdem.errors import InputError
 from pdem.parallel import slabs
 from pdem.state import FIELDS
 
@@ -120,12 +126,13 @@ class SlabDomain:
         self.n_rebalanced = 0  # edge moves, cumulative (same on every rank)
 
     # ------------------------------------------------------------------ set-up
-    def distribute(self, particles, cols):
+    def distribute(self, particles, cols, owner_pos=None):
         """Keep the bodies of this rank's slab from the full column dict (identical on every rank).
 
-        Edges: uniform over the extent of the centres along the axis (load balancing at the first
-        rebuild may move them)."""
-        x = np.asarray(cols["pos"])[:, self.axis]
+        ``owner_pos`` [n, 3]: the positions that decide the owner (default the bodies' own; a
+        rigid clump's members go with their clump's centre). Edges: uniform over the extent of
+        these along the axis (load balancing at the first rebuild may move them)."""
+        x = np.asarray(cols["pos"] if owner_pos is None else owner_pos)[:, self.axis]
         self.r_max = float(np.max(cols["radius"])) if len(x) else 0.0
         lo, hi = (float(x.min()), float(x.max())) if len(x) else (0.0, 1.0)
         if not hi > lo:
@@ -151,8 +158,21 @@ class SlabDomain:
                 f"{'xyz'[self.axis]} and each slab must be at least one halo (2 r_max + skin = {halo:.4g} m) thick; "
                 f"use at most {most} ranks (or another simulation.slab_axis)")
 
+    def owns(self, points):
+        """bool [n]: which of the points [n, 3] lie in this rank's slab."""
+        x = np.asarray(points, np.float64).reshape(-1, 3)[:, self.axis]
+        return slabs.owner(x, self.edges) == self.comm.rank if len(x) else np.zeros(0, bool)
+
     def halo_width(self):
         return self.halo
+
+    def _owner_coordinate(self, sim):
+        """[n_local] coordinate of each owned body that decides its owner (a rigid clump's members
+        go with the clump's centre)."""
+        p = sim.particles
+        if sim.clumps is None:
+            return p.pos[: p.n_local, self.axis]
+        return sim.clumps.centre_coordinate(p, self.axis)
 
     def halo_fraction(self, particles):
         """Ghost rows per owned row on this rank."""
@@ -166,11 +186,24 @@ class SlabDomain:
         p = sim.particles
         comm = self.comm
         self.r_max = comm.allreduce_max(float(p.radius[: p.n_local].max()) if p.n_local else 0.0)
-        self.halo = 2.0 * self.r_max + float(sim.skin)
+        extent = sim.clumps.extent if sim.clumps is not None else 0.0
+        # a member may stick out of its owner's slab by the clump extent, and so may its partner
+        self.halo = 2.0 * self.r_max + float(sim.skin) + 2.0 * extent
         moved_edges = self._balance(sim)
+        self._check_clump_reach(sim, extent)
         self._migrate(sim, moved_edges)
         self._build_ghosts(p)
         self.comm_seconds += _time.perf_counter() - t0
+
+    def _check_clump_reach(self, sim, extent):
+        """InputError if an interior slab is thinner than the halo widened for the clumps (a clump
+        would reach past the neighbouring slab, whose ghosts are the only ones exchanged)."""
+        thick = np.diff(self.edges)[1:-1]
+        if extent > 0.0 and len(thick) and thick.min() < self.halo * (1.0 - 1e-9):
+            raise InputError(
+                f"clumps: the largest clump reaches {extent:.4g} m from its centre, so the slab halo "
+                f"(2 r_max + skin + 2 x {extent:.4g} = {self.halo:.4g} m) is wider than the thinnest slab "
+                f"({thick.min():.4g} m of {self.comm.size} along {'xyz'[self.axis]}); use fewer ranks")
 
     def _loads(self, sim):
         """Work per owned body: 1 + its real contacts (of every kind)."""
@@ -189,9 +222,8 @@ class SlabDomain:
         """Move the interior edges if the load imbalance exceeds the threshold; True if moved."""
         if self.balance_threshold is None or self.comm.size == 1:
             return False
-        p = sim.particles
         w = self._loads(sim)
-        x = p.pos[: p.n_local, self.axis]
+        x = self._owner_coordinate(sim)
         per_rank = self.comm.allgather_rows(np.array([int(w.sum())], np.int64))
         if slabs.imbalance(per_rank) <= self.balance_threshold:
             return False
@@ -238,7 +270,7 @@ class SlabDomain:
         comm, rank = self.comm, self.comm.rank
         nl = p.n_local
         p.n_ghost = 0  # ghost rows are rebuilt below; contact rows only use keys from here on
-        x = p.pos[:nl, self.axis]
+        x = self._owner_coordinate(sim)
         dest = slabs.owner(x, self.edges) if nl else np.zeros(0, np.int64)
         leave = dest != rank
         far = leave & (np.abs(dest - rank) > 1)
@@ -272,6 +304,8 @@ class SlabDomain:
         ri, rf = self._route(bi, bf)
         if ri.shape[0]:
             p.append_local(unpack_rows(ri[:, 1:], rf))
+        if sim.clumps is not None:  # the clump bodies go where their members went
+            self._migrate_clumps(sim.clumps)
         for cl, ci, cf in parcels:
             ri, rf = self._route(ci, cf)
             if ri.shape[0] == 0:
@@ -286,11 +320,23 @@ class SlabDomain:
                 cl.add_carried(key[first], ri[first, 2].astype(np.int8), rf[first, : cl.n_params],
                                rf[first, cl.n_params :])
 
+    def _migrate_clumps(self, clumps):
+        rank = self.comm.rank
+        dest = slabs.owner(clumps.pos[:, self.axis], self.edges) if clumps.n else np.zeros(0, np.int64)
+        leave = dest != rank
+        ci, cf, mi, mf = clumps.pack(leave, dest)
+        clumps.keep(~leave)
+        ci, cf = self._route(ci, cf)
+        mi, mf = self._route(mi, mf)
+        if ci.shape[0]:
+            clumps.add(*unpack_clumps(ci, cf, mi, mf))
+
     def _build_ghosts(self, p):
         nl = p.n_local
         x = p.pos[:nl, self.axis]
-        dest = slabs.ghost_destinations(x, self.edges, self.halo)  # raises if a slab is too thin
         rank = self.comm.rank
+        # owner given, not recomputed from x: a clump member may lie outside its owner's slab
+        dest = slabs.ghost_destinations(x, self.edges, self.halo, owners=np.full(nl, rank, np.int64))
         # -1 in dest means "no neighbour": on rank 0, `dest[:, 0] == rank - 1` selected every
         # body, and all of them were packed and "sent" to MPI_PROC_NULL at every ghost update
         # (5-7 ms per step at 100k bodies per rank, while rank 1 waited: the 2-rank speedup

@@ -89,7 +89,7 @@ def owner(x, edges):
     return r
 
 
-def ghost_destinations(x, edges, width):
+def ghost_destinations(x, edges, width, owners=None):
     """Neighbour ranks that must hold each body as a ghost.
 
     A body owned by rank ``o`` is a ghost on rank ``o - 1`` if its distance to that slab,
@@ -107,6 +107,9 @@ def ghost_destinations(x, edges, width):
     width : float
         Halo width [m]: maximum contact range plus the Verlet skin (2 r_max + skin, wider for
         clumps).
+    owners : int array, shape (n,), optional
+        The rank that owns each body (default ``owner(x, edges)``); a rigid clump's member is
+        owned with its clump and may lie outside its owner's slab.
 
     Returns
     -------
@@ -134,7 +137,7 @@ def ghost_destinations(x, edges, width):
             f"min_thickness=width)"
         )
     xa = np.asarray(x, dtype=np.float64).reshape(-1)
-    own = owner(xa, edges)
+    own = owner(xa, edges) if owners is None else np.asarray(owners, np.int64).reshape(-1)
     dest = np.full((xa.size, 2), -1, dtype=np.int64)
     if size == 1:
         return dest
