@@ -20,7 +20,7 @@ Imports nothing from pdem but errors and loads.
 import numpy as np
 
 from .errors import InputError
-from .loads import Constant, Haversine, Impulse
+from .loads import Constant, Haversine, Impulse, SleeperLoad
 from .state import DOF_ALL
 
 DOF_LETTERS = "xyzXYZ"
@@ -100,8 +100,9 @@ class Boxes:
         if not (0.0 <= lam <= 0.99):
             raise InputError(f"{label}.damping = {damping!r}: must be in [0, 0.99] (Cundall's lambda_D)")
         mask = blocked_mask(label, blocked, fixed)
-        if load is not None and not isinstance(load, (Constant, Haversine, Impulse)):
-            raise InputError(f"{label}.load = {load!r}: must be None or a pdem.loads program (Haversine, Constant, Impulse)")
+        if load is not None and not isinstance(load, (Constant, Haversine, Impulse, SleeperLoad)):
+            raise InputError(f"{label}.load = {load!r}: must be None or a pdem.loads program (Haversine, Constant, "
+                             "Impulse, SleeperLoad)")
         d = self._vector(f"{label}.direction", direction)
         norm = float(np.sqrt(d @ d))
         if not norm > 0.0:

@@ -8,7 +8,7 @@ the ranks of ``comm``; returns the exit status). A scene file selects one by its
 """
 from importlib import import_module
 
-SCENES = {"box_test": "pdem.scenes.box_test"}
+SCENES = {"box_test": "pdem.scenes.box_test", "track": "pdem.scenes.track"}
 
 
 def find(doc):
