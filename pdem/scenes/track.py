@@ -383,6 +383,7 @@ class TrackRun(PreparedRun):
         self.tracker, self.writer, self.loads_report = None, None, None
         super().__init__(path, doc, out_dir, comm, fresh)
         self.step0 = int(self.meta["step"]) if self.meta else 0  # where this invocation starts
+        self.rebuilds0 = int(self.meta.get("n_rebuilds", 0)) if self.meta else 0
 
     def initial_state(self):
         return {"traffic_start": None, "tracker": None, "prepared_from": None, "forces": []}
@@ -553,6 +554,7 @@ class TrackRun(PreparedRun):
         self.loads_report = observables.rank_loads(sim)
         t = sim.timers.seconds
         self.timers_max = {k: self.comm.allreduce_max(float(v)) for k, v in t.items()}
+        self.timers_total_max = self.comm.allreduce_max(float(sum(t.values())))
         self.n_bodies = self.comm.allreduce_sum_int(sim.particles.n_local)
 
     def scaling_record(self, sim, wall_s):
@@ -560,9 +562,10 @@ class TrackRun(PreparedRun):
         g = profile(self.c)
         steps = sim.step - self.step0
         return {"scene": "track", "ranks": self.comm.size, "bodies": self.n_bodies, "steps": steps,
-                "wall_s": wall_s, "track_length": g["length"], "sleepers": self.c["sleepers"],
+                "rebuilds": sim.n_rebuilds - self.rebuilds0, "wall_s": wall_s, "spacing": self.c["spacing"], "track_length": g["length"], "sleepers": self.c["sleepers"],
                 "bodies_per_metre": self.n_bodies / g["length"], "radius": self.c["radius"],
-                "radius_spread": self.c["radius_spread"], "timers_max_s": self.timers_max, "loads": self.loads_report,
+                "radius_spread": self.c["radius_spread"], "timers_max_s": self.timers_max,
+                "timers_total_max_s": self.timers_total_max, "loads": self.loads_report,
                 "uptime": _load_average()}
 
     def write_scaling(self, sim, wall_s):
