@@ -200,7 +200,8 @@ class PreparedRun(StagedRun):
         if stage == "vibrate":
             c = self.c
             sim.set_friction_scale(c["vibration_friction_factor"])
-            sim.gravity = np.asarray(scene.settings["gravity"], np.float64) + shaking(c, sim.time - self.state["stage_t0"])
+            g = np.asarray(scene.settings["gravity"], np.float64)
+            sim.gravity = g + shaking(c, sim.time - self.state["stage_t0"])
 
     def max_steps(self, stage):
         return 0 if stage == "vibrate" and self.c["vibration_time"] == 0 else 10**15

@@ -122,13 +122,15 @@ def track_settings(doc):
     check_keys("track", given, set(DEFAULTS) | OPTIONAL)
     for k in doc:
         if k not in TOP_TABLES:
-            raise InputError(f"scene file.{k}: unknown table for a track scene; allowed: {', '.join(sorted(TOP_TABLES))}")
+            raise InputError(f"scene file.{k}: unknown table for a track scene; allowed: "
+                             f"{', '.join(sorted(TOP_TABLES))}")
     c = {**DEFAULTS, **given}
     c["half"] = boolean("track.half", c["half"])
     v = c["sleeper_size"]
     if not (isinstance(v, list) and len(v) == 3):
         raise InputError(f"track.sleeper_size = {v!r}: must be [width x, length y, height z] > 0 [m]")
-    c["sleeper_size"] = [number("track.sleeper_size", x, 0.0, lo_open=True, allow="[x, y, z] lengths > 0 [m]") for x in v]
+    c["sleeper_size"] = [number("track.sleeper_size", x, 0.0, lo_open=True, allow="[x, y, z] lengths > 0 [m]")
+                         for x in v]
     for k in ("ballast_material", "wall_material", "base_material", "sleeper_material"):
         if not isinstance(c[k], str) or c[k] not in doc.get("materials", {}):
             raise InputError(f"track.{k} = {c[k]!r}: no [materials.{c[k]}] table in the scene file")
@@ -195,7 +197,8 @@ def traffic_settings(doc, c):
     for k in ("rail_bending_stiffness", "rail_seat_stiffness"):
         t[k] = number(f"traffic.{k}", t[k], 0.0, lo_open=True)
     if "characteristic_length" not in given:
-        t["characteristic_length"] = (4.0 * t["rail_bending_stiffness"] * c["spacing"] / t["rail_seat_stiffness"]) ** 0.25
+        ei, kd = t["rail_bending_stiffness"], t["rail_seat_stiffness"]
+        t["characteristic_length"] = (4.0 * ei * c["spacing"] / kd) ** 0.25
     length = number("traffic.characteristic_length", t["characteristic_length"], 0.0, lo_open=True)
     reach = ETA_ZERO * length
     t.setdefault("x_from", float(x[0] - reach))
@@ -222,9 +225,9 @@ def check_ranks(c, doc, size):
     length = c["sleepers"] * c["spacing"]
     if size > 1 and length - 2 * r_max < size * halo:
         most = max(int((length - 2 * r_max) // halo), 1)
-        raise InputError(f"track.sleepers = {c['sleepers']}: a track of {length:g} m is shorter than {size} slabs allow "
-                         f"(each at least one halo, 2 r_max + skin = {halo:.4g} m, thick): use at most {most} rank(s) "
-                         "or a longer track")
+        raise InputError(f"track.sleepers = {c['sleepers']}: a track of {length:g} m is shorter than {size} slabs "
+                         f"allow (each at least one halo, 2 r_max + skin = {halo:.4g} m, thick): use at most "
+                         f"{most} rank(s) or a longer track")
 
 
 # ---------------------------------------------------------------------------- geometry
@@ -487,11 +490,11 @@ class TrackRun(PreparedRun):
     def traffic_text(self):
         t = self.t
         if t["program"] == "haversine":
-            return (f"{t['cycles']} cycle(s) {t['f_min']:g} <-> {t['f_max']:g} N per rail seat at {t['frequency']:g} Hz "
-                    "on every sleeper")
-        return (f"{t['passages']} passage(s) of {len(t['axles'])} axle(s) of {t['axle_load']:g} N at {t['speed']:g} m/s, "
-                f"axles at {t['axles']} m, from x = {t['x_from']:.3f} to {t['x_to']:.3f} m, rest {t['rest_time']:g} s; "
-                f"rail-seat shares with L = {t['characteristic_length']:.4f} m")
+            return (f"{t['cycles']} cycle(s) {t['f_min']:g} <-> {t['f_max']:g} N per rail seat at "
+                    f"{t['frequency']:g} Hz on every sleeper")
+        return (f"{t['passages']} passage(s) of {len(t['axles'])} axle(s) of {t['axle_load']:g} N at "
+                f"{t['speed']:g} m/s, axles at {t['axles']} m, from x = {t['x_from']:.3f} to {t['x_to']:.3f} m, "
+                f"rest {t['rest_time']:g} s; rail-seat shares with L = {t['characteristic_length']:.4f} m")
 
     def load_program(self, stage, sim, scene):
         state, run = self.state, self.run_cfg
@@ -530,9 +533,9 @@ class TrackRun(PreparedRun):
                 w.passage(row[0], row[1], row[2], row[3], gap)
                 if recorded(p):
                     self.force_record(f"end_passage_{p}", sim)
-                self.loop.log(f"passage {p}/{n} done at t = {sim.time:.4f} s: settlement peak {1e3 * row[2].mean():.3f} "
-                              f"(max {1e3 * row[2].max():.3f}) mm, permanent {1e3 * row[3].mean():.3f} "
-                              f"({1e3 * row[3].min():.3f} .. {1e3 * row[3].max():.3f}) mm, gap max "
+                self.loop.log(f"passage {p}/{n} done at t = {sim.time:.4f} s: settlement peak "
+                              f"{1e3 * row[2].mean():.3f} (max {1e3 * row[2].max():.3f}) mm, permanent "
+                              f"{1e3 * row[3].mean():.3f} ({1e3 * row[3].min():.3f} .. {1e3 * row[3].max():.3f}) mm, gap max "
                               f"{1e3 * gap.max():.3f} mm")
             elif sim.step == first or (run["output_every"] and sim.step % run["output_every"] == 0):
                 w.append(*sleeper_sample(sim, tr))
@@ -562,7 +565,8 @@ class TrackRun(PreparedRun):
         g = profile(self.c)
         steps = sim.step - self.step0
         return {"scene": "track", "ranks": self.comm.size, "bodies": self.n_bodies, "steps": steps,
-                "rebuilds": sim.n_rebuilds - self.rebuilds0, "wall_s": wall_s, "spacing": self.c["spacing"], "track_length": g["length"], "sleepers": self.c["sleepers"],
+                "rebuilds": sim.n_rebuilds - self.rebuilds0, "wall_s": wall_s, "spacing": self.c["spacing"],
+                "track_length": g["length"], "sleepers": self.c["sleepers"],
                 "bodies_per_metre": self.n_bodies / g["length"], "radius": self.c["radius"],
                 "radius_spread": self.c["radius_spread"], "timers_max_s": self.timers_max,
                 "timers_total_max_s": self.timers_total_max, "loads": self.loads_report,
@@ -618,15 +622,17 @@ def finish(run, sim, wall_s):
     lines = [f"track section: {run.path}",
              f"{'half (y >= 0), ' if c['half'] else ''}{c['sleepers']} sleeper(s) {c['sleeper_size']} m at "
              f"{c['spacing']} m, bed depth {c['bed_depth']} m, shoulder {c['shoulder_width']} m, slope 1:{c['slope']}; "
-             f"track {g['length']:g} m x {g['y_toe'] - g['y_lo']:.3f} m at the toe; sleeper body {c['body_mass']:.1f} kg",
+             f"track {g['length']:g} m x {g['y_toe'] - g['y_lo']:.3f} m at the toe; sleeper body "
+             f"{c['body_mass']:.1f} kg",
              ""]
     if run.state["prepared_from"]:
         lines += [f"prepared bed: {run.state['prepared_from']}", ""]
     lines += ["stage     t_end [s]    steps  spheres  unbalanced  bed top [m]  sleeper z [m]  balance  wall [s]"]
     for r in run.state["stages"]:
         z = f"{r['sleeper_z']:.4f}" if r.get("sleeper_z") is not None else "-"
-        lines.append(f"{r['stage']:<8} {r['t_end']:9.4f} {r['step_end']:8d} {r['spheres']:8d} {r['unbalanced_force']:11.3g} "
-                     f"{r['bed_top']:12.4f} {z:>14} {r.get('balance', float('nan')):8.3f} {r['wall_s']:9.1f}")
+        lines.append(f"{r['stage']:<8} {r['t_end']:9.4f} {r['step_end']:8d} {r['spheres']:8d} "
+                     f"{r['unbalanced_force']:11.3g} {r['bed_top']:12.4f} {z:>14} "
+                     f"{r.get('balance', float('nan')):8.3f} {r['wall_s']:9.1f}")
     lines += [""] + balance_lines(rec)
     status = None
     if t is not None and (out / "results.h5").exists():
@@ -636,7 +642,8 @@ def finish(run, sim, wall_s):
         with h5py.File(out / "results.h5", "r") as f:
             if "passages" in f:
                 pg = {k: f["passages"][k][...] for k in f["passages"]}
-                lines.append("passage  t_end [s]  settlement peak mean/max [mm]  permanent mean/min/max [mm]  gap max [mm]")
+                lines.append("passage  t_end [s]  settlement peak mean/max [mm]  permanent mean/min/max [mm]  "
+                             "gap max [mm]")
                 for i in range(len(pg["passage"])):
                     pk, pm = pg["settlement_peak"][i], pg["settlement_permanent"][i]
                     lines.append(f"{int(pg['passage'][i]):7d} {pg['t_end'][i]:10.4f}  {1e3 * pk.mean():9.3f} "
