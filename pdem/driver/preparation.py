@@ -18,6 +18,9 @@ Stages (`PREPARATION_STAGES`), then the scene's own loading stages:
                 [Hz]; rigid bodies feel it too. Friction is then restored.
 4. ``settle``   settle.
 
+A scene may order these stages otherwise (the track section compacts its bed before the cut,
+as the thesis did: pour, vibrate, settle, refill); what each stage does stays the same.
+
 "Settle" runs until Yade's unbalanced-force ratio falls below ``settle_ratio`` (checked every
 ``check_every`` steps, not before ``settle_min_time`` [s] into the stage) or ``settle_max_time``
 [s] has passed (then a warning line is printed and the pipeline goes on).
@@ -123,8 +126,8 @@ def shaking(c, t):
 
 # ---------------------------------------------------------------------------- the run
 class PreparedRun(StagedRun):
-    """A `StagedRun` whose first stages are `PREPARATION_STAGES`; ``STAGES`` = those + the
-    scene's loading stages. ``self.c`` is the scene's table with the pipeline's keys checked.
+    """A `StagedRun` whose first stages are `PREPARATION_STAGES` (in the scene's order);
+    ``STAGES`` = those + the scene's loading stages. ``self.c`` is the scene's table with the pipeline's keys checked.
 
     The scene implements `pour`, `refill`, `trim` (table operations of the preparation),
     `stage_scene`, and for its loading stages `open_load_stage`, `load_program`; optionally
@@ -202,6 +205,7 @@ class PreparedRun(StagedRun):
             sim.set_friction_scale(c["vibration_friction_factor"])
             g = np.asarray(scene.settings["gravity"], np.float64)
             sim.gravity = g + shaking(c, sim.time - self.state["stage_t0"])
+            sim.moving_boundaries = True  # the shaking does external work: no energy-growth check
 
     def max_steps(self, stage):
         return 0 if stage == "vibrate" and self.c["vibration_time"] == 0 else 10**15

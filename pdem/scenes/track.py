@@ -24,17 +24,19 @@ and units in `DEFAULTS`, `TRAFFIC_DEFAULTS`; SI) describes:
 - The rail is not a body: a rigid sleeper that cannot rotate carries the rail-seat load
   wherever it acts, so the rail adds only its mass.
 
-Stages: the preparation pipeline shared with the box test (`pdem.driver.preparation`):
+Stages: the preparation pipeline shared with the box test (`pdem.driver.preparation`), in
+the thesis's order for the track (compact the bed, then cut it and place the sleeper on it):
 
 1. ``pour``     a loose cloud fills the box x in [0, L], |y| <= y_toe (the toe of the slope)
                 up to z_top (times the overfill); settle.
-2. ``refill``   cut the bed to its shape: remove the spheres that stick out above z_top,
-                beyond the slopes, or into a sleeper; place the sleepers in their slots, the
-                slope facets; settle.
-3. ``vibrate``  remove what sticks out above z_top; shake with friction lowered; restore.
-4. ``settle``   settle. The end-of-stage checkpoint is copied to ``prepared.h5``: the prepared
-                bed, which any number of load programs start from ([traffic] prepared = that
-                file or its run directory) without preparing again.
+2. ``vibrate``  shake the box with friction lowered; restore.
+3. ``settle``   settle.
+4. ``refill``   cut the compacted bed to its shape: remove the spheres that stick out above
+                z_top, beyond the slopes, or into a sleeper; place the sleepers in their slots
+                (base at z = bed_depth) and the slope facets; settle. The end-of-stage
+                checkpoint is copied to ``prepared.h5``: the prepared bed, which any number of
+                load programs start from ([traffic] prepared = that file or its run directory)
+                without preparing again.
 5. ``traffic``  (only with a ``[traffic]`` table) ``program = "axles"``: `pdem.loads.AxleTrain`
                 (``passages`` trains of axles at positions ``axles`` [m] behind the first,
                 ``axle_load`` [N], ``speed`` [m/s]; each sleeper carries the time-shifted
@@ -65,8 +67,8 @@ import numpy as np
 from ..config import check_keys, run_settings, scene_from_dict
 from ..driver import observables
 from ..driver.plain import write_snapshot
-from ..driver.preparation import PREPARATION_DEFAULTS, PREPARATION_STAGES, PreparedRun, add_cloud, \
-    check_preparation, plot_preparation, remove_where
+from ..driver.preparation import PREPARATION_DEFAULTS, PreparedRun, add_cloud, check_preparation, plot_preparation, \
+    remove_where
 from ..driver.results import write_root_attrs
 from ..driver.stages import empty_tables
 from ..driver.track_record import PassageTracker, TrackWriter, sleeper_sample, write_force_record
@@ -75,7 +77,8 @@ from ..io.checkpoint import CheckpointError, read_checkpoint
 from ..loads import ETA_ZERO, AxleTrain, Haversine
 from ..validate import boolean, number
 
-STAGES = PREPARATION_STAGES + ("traffic",)
+PREPARATION = ("pour", "vibrate", "settle", "refill")  # the pipeline's stages: compacted before the cut
+STAGES = PREPARATION + ("traffic",)
 TOP_TABLES = {"simulation", "run", "materials", "track", "traffic"}
 # [track] keys and defaults (SPEC.md 2.4, thesis ch. 6 and table 6.1; stiffness is in [materials])
 DEFAULTS = {
@@ -382,7 +385,7 @@ class TrackRun(PreparedRun):
         self.c = track_settings(doc)
         self.t = traffic_settings(doc, self.c)
         if self.t is None:
-            self.STAGES = PREPARATION_STAGES
+            self.STAGES = PREPARATION
         self.tracker, self.writer, self.loads_report = None, None, None
         super().__init__(path, doc, out_dir, comm, fresh)
         self.step0 = int(self.meta["step"]) if self.meta else 0  # where this invocation starts
@@ -453,11 +456,6 @@ class TrackRun(PreparedRun):
                         f"the slopes), cleared {c['sleepers']} sleeper slot(s) ({slots} spheres), placed the sleepers "
                         "and the slope facets")
 
-    def trim(self, tables):
-        c = self.c
-        tables, removed = remove_where(tables, lambda pos, r: outside_bed(c, pos, r))
-        return tables, f"removed {removed} spheres outside the bed's shape"
-
     def stage_scene(self, stage, tables):
         centres = tables["boxes"]["center"] if "boxes" in tables else None
         loads = None
@@ -473,7 +471,7 @@ class TrackRun(PreparedRun):
 
     def end_stage(self, stage, sim, wall0, **record):
         written = super().end_stage(stage, sim, wall0, **record)
-        if stage == "settle" and self.comm.rank == 0:  # the prepared bed: a copy of this checkpoint
+        if stage == PREPARATION[-1] and self.comm.rank == 0:  # the prepared bed: a copy of this checkpoint
             tmp = self.out / (PREPARED + ".tmp")
             shutil.copyfile(written, tmp)
             os.replace(tmp, self.out / PREPARED)
@@ -535,8 +533,8 @@ class TrackRun(PreparedRun):
                     self.force_record(f"end_passage_{p}", sim)
                 self.loop.log(f"passage {p}/{n} done at t = {sim.time:.4f} s: settlement peak "
                               f"{1e3 * row[2].mean():.3f} (max {1e3 * row[2].max():.3f}) mm, permanent "
-                              f"{1e3 * row[3].mean():.3f} ({1e3 * row[3].min():.3f} .. {1e3 * row[3].max():.3f}) mm, gap max "
-                              f"{1e3 * gap.max():.3f} mm")
+                              f"{1e3 * row[3].mean():.3f} ({1e3 * row[3].min():.3f} .. {1e3 * row[3].max():.3f}) mm, "
+                              f"gap max {1e3 * gap.max():.3f} mm")
             elif sim.step == first or (run["output_every"] and sim.step % run["output_every"] == 0):
                 w.append(*sleeper_sample(sim, tr))
             self.snapshot(sim)
@@ -617,7 +615,7 @@ def finish(run, sim, wall_s):
     out, c, t = run.out, run.c, run.t
     rec = run.write_scaling(sim, wall_s)
     if (out / "preparation.h5").exists() and run.state["prepared_from"] is None:
-        plot_preparation(out / "preparation.h5", out / "preparation.png", PREPARATION_STAGES)
+        plot_preparation(out / "preparation.h5", out / "preparation.png", PREPARATION)
     g = profile(c)
     lines = [f"track section: {run.path}",
              f"{'half (y >= 0), ' if c['half'] else ''}{c['sleepers']} sleeper(s) {c['sleeper_size']} m at "
