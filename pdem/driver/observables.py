@@ -133,3 +133,20 @@ def rank_loads(sim):
             "edges": None if getattr(d, "edges", None) is None else [float(e) for e in d.edges],
             "halo": float(getattr(d, "halo", 0.0)), "migrated": int(rows[:, 4].sum()),
             "rebalanced": int(getattr(d, "n_rebalanced", 0))}
+
+
+def box_rest(sim, v_ref):
+    """(largest |net force| / weight [-], largest speed / v_ref [-]) over the rigid boxes'
+    free translations: contact force + applied load + weight (replicated: the same on every
+    rank). 0, 0 without boxes."""
+    bx = sim.boxes
+    if bx is None:
+        return 0.0, 0.0
+    f_ratio, v_ratio = 0.0, 0.0
+    for k in range(len(bx)):
+        free = np.array([not (int(bx.blocked[k]) >> a) & 1 for a in range(3)])
+        weight = bx.mass[k] * float(np.linalg.norm(sim.gravity))
+        net = bx.contact_force[k] + bx.load_force[k] + bx.mass[k] * sim.gravity
+        f_ratio = max(f_ratio, float(np.linalg.norm(net[free])) / weight if weight > 0 else 0.0)
+        v_ratio = max(v_ratio, float(np.linalg.norm(bx.velocity[k][free])) / v_ref)
+    return f_ratio, v_ratio

@@ -22,8 +22,9 @@ A scene may order these stages otherwise (the track section compacts its bed bef
 as the thesis did: pour, vibrate, settle, refill); what each stage does stays the same.
 
 "Settle" runs until Yade's unbalanced-force ratio falls below ``settle_ratio`` (checked every
-``check_every`` steps, not before ``settle_min_time`` [s] into the stage) or ``settle_max_time``
-[s] has passed (then a warning line is printed and the pipeline goes on).
+``check_every`` steps, not before ``settle_min_time`` [s] into the stage) and, if the scene asks
+(`PreparedRun.bodies_settled`), its rigid bodies are at rest, or until ``settle_max_time`` [s]
+has passed (then a warning line is printed and the pipeline goes on).
 
 Keys and defaults of the pipeline: `PREPARATION_DEFAULTS` (a scene's table holds them next to
 its own keys; `check_preparation` validates them). Records: ``preparation.h5`` (kind
@@ -167,6 +168,11 @@ class PreparedRun(StagedRun):
         """Text appended to the stage-end line about the rigid bodies (e.g. the sleeper bottom)."""
         return ""
 
+    def bodies_settled(self, sim):
+        """Whether the scene's rigid bodies are at rest too (a settle stage ends only then);
+        default: not checked (the box test ends its stages on the spheres' ratio alone)."""
+        return True
+
     def sleeper_z(self, sim):
         """Mean centre height of the rigid bodies [m] (nan before they are placed)."""
         bx = sim.boxes
@@ -243,7 +249,8 @@ class PreparedRun(StagedRun):
 
         def settled(sim):
             return sim.time >= t_end or (sim.time - t0 >= c["settle_min_time"]
-                                         and observables.unbalanced_force(sim) < c["settle_ratio"])
+                                         and observables.unbalanced_force(sim) < c["settle_ratio"]
+                                         and self.bodies_settled(sim))
 
         return on_step, settled, c["check_every"], t_end
 
@@ -259,6 +266,9 @@ class PreparedRun(StagedRun):
         if stage in ("pour", "refill", "settle") and ratio >= c["settle_ratio"]:
             log(f"warning: stage {stage} reached settle_max_time = {c['settle_max_time']} s with unbalanced force "
                 f"ratio {ratio:.3g} >= settle_ratio = {c['settle_ratio']}; going on")
+        elif stage in ("pour", "refill", "settle") and not self.bodies_settled(sim):
+            log(f"warning: stage {stage} reached settle_max_time = {c['settle_max_time']} s with the rigid bodies "
+                "not at rest; going on")
         if stage == "vibrate":
             sim.set_friction_scale(1.0)
         top = observables.bed_top(sim)
