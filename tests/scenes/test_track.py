@@ -223,9 +223,9 @@ def test_resume_in_the_middle_of_the_traffic_on_3_ranks(runs):
     base, scene, _, r2 = runs
     out = base / "resume3"
     shutil.copytree(base / "r2", out)
-    line = next(s for s in r2.stdout.splitlines() if "(end of stage settle" in s)
-    settle_end = int(line.split(":")[0].split()[1])
-    mid = [s for s, _ in list_checkpoints(out / "checkpoints") if s > settle_end + 100][0]
+    line = next(s for s in r2.stdout.splitlines() if "(end of stage refill" in s)  # the last preparation stage
+    prepared = int(line.split(":")[0].split()[1])
+    mid = [s for s, _ in list_checkpoints(out / "checkpoints") if s > prepared + 100][0]
     for s, p in list_checkpoints(out / "checkpoints"):
         if s > mid:
             p.unlink()
@@ -245,6 +245,6 @@ def test_bad_input_one_line(tmp_path, edit, ranks, message):
     scene = tmp_path / "bad.toml"
     scene.write_text(SCENE.replace(*edit))
     r = run_pdem(ranks, scene, tmp_path / "out", expect=2)
-    err = [s for s in r.stderr.splitlines() if s.startswith("pdem: error:")]
-    assert len(err) == ranks or len(err) == 1, r.stderr
-    assert message in err[0], r.stderr
+    # one line (from every rank, possibly interleaved), no traceback
+    assert message in r.stderr and r.stderr.count("pdem: error:") == r.stderr.count("\n") == ranks, r.stderr
+    assert "Traceback" not in r.stderr
