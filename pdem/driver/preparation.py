@@ -168,6 +168,9 @@ class PreparedRun(StagedRun):
         """Text appended to the stage-end line about the rigid bodies (e.g. the sleeper bottom)."""
         return ""
 
+    def after_snapshot(self, sim):
+        """Written with every snapshot of the spheres (e.g. the rigid bodies)."""
+
     def bodies_settled(self, sim):
         """Whether the scene's rigid bodies are at rest too (a settle stage ends only then);
         default: not checked (the box test ends its stages on the spheres' ratio alone)."""
@@ -232,7 +235,7 @@ class PreparedRun(StagedRun):
         if sim.step == 0:  # later stages start at the step of the row that ended the last one
             self.prep.append(self.prep_sample(sim, stage))
             if self.snaps is not None:
-                write_snapshot(self.snaps, sim)
+                self.write_snapshot(sim)
         g = np.asarray(scene.settings["gravity"], np.float64)
 
         def on_step(sim):
@@ -258,7 +261,12 @@ class PreparedRun(StagedRun):
         """ParaView snapshot every run.snapshot_every steps and at the end of every stage."""
         every = self.run_cfg["snapshot_every"]
         if self.snaps is not None and (sim.step % every == 0) != stage_end:
-            write_snapshot(self.snaps, sim)
+            self.write_snapshot(sim)
+
+    def write_snapshot(self, sim):
+        """One ParaView snapshot of the spheres (and what `after_snapshot` adds)."""
+        write_snapshot(self.snaps, sim)
+        self.after_snapshot(sim)
 
     def close_stage(self, stage, sim):
         c, log = self.c, self.loop.log

@@ -66,12 +66,11 @@ import numpy as np
 
 from ..config import check_keys, run_settings, scene_from_dict
 from ..driver import observables
-from ..driver.plain import write_snapshot
 from ..driver.preparation import PREPARATION_DEFAULTS, PreparedRun, add_cloud, check_preparation, plot_preparation, \
     remove_where
 from ..driver.results import write_root_attrs
 from ..driver.stages import empty_tables
-from ..driver.track_record import PassageTracker, TrackWriter, sleeper_sample, write_force_record
+from ..driver.track_record import PassageTracker, TrackWriter, sleeper_sample, write_force_record, write_sleepers
 from ..errors import InputError
 from ..io.checkpoint import CheckpointError, read_checkpoint
 from ..loads import ETA_ZERO, AxleTrain, Haversine
@@ -555,13 +554,18 @@ class TrackRun(PreparedRun):
     def force_record(self, label, sim):
         write_force_record(self.results, label, sim)
         if self.snaps is not None and self.snapped != sim.step:
-            write_snapshot(self.snaps, sim)
+            self.write_snapshot(sim)
             self.snapped = sim.step
         self.state["forces"].append(label)
 
     def snapshot(self, sim, stage_end=False):
         if self.snapped != sim.step:  # not twice at one step (a force record and the schedule)
             super().snapshot(sim, stage_end)
+
+    def after_snapshot(self, sim):
+        """The sleepers for ParaView, next to the spheres' snapshots: sleepers.pvd."""
+        if self.comm.rank == 0 and sim.boxes is not None:
+            write_sleepers(self.out, sim.step, sim.time, sim.boxes.center, sim.boxes.half)
 
     def stage_record(self, stage, sim):
         return {**super().stage_record(stage, sim), "balance": observables.rank_loads(sim)["imbalance"]}
