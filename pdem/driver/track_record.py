@@ -195,9 +195,9 @@ def write_sleepers(out, step, time, centres, halves):
     n = len(centres)
     halves = np.broadcast_to(np.asarray(halves, float), (n, 3))
     pts = (np.asarray(centres)[:, None, :] + corners[None] * halves[:, None, :]).reshape(-1, 3)
-    lines = ["# vtk DataFile Version 3.0", f"pdem sleepers step {int(step)} time {time!r}", "ASCII",
+    lines = ["# vtk DataFile Version 3.0", f"pdem sleepers step {int(step)} time {float(time)!r}", "ASCII",
              "DATASET UNSTRUCTURED_GRID", f"POINTS {8 * n} double"]
-    lines += [f"{x!r} {y!r} {z!r}" for x, y, z in pts]
+    lines += [" ".join(repr(float(v)) for v in p) for p in pts]
     lines += [f"CELLS {n} {9 * n}"] + [" ".join(["8"] + [str(8 * k + i) for i in range(8)]) for k in range(n)]
     lines += [f"CELL_TYPES {n}"] + ["12"] * n
     lines += [f"CELL_DATA {n}", "SCALARS sleeper int 1", "LOOKUP_TABLE default"] + [str(k) for k in range(n)]
