@@ -191,7 +191,9 @@ def test_same_bits_on_1_and_2_ranks(runs):
     assert_same_bodies(last(base / "r1"), last(base / "r2"), "final bodies")
 
 
+@pytest.mark.slow
 def test_first_2000_steps_on_3_ranks(runs):
+    """slow: 2000 more steps of the reduced track on 3 ranks (about 20 s on an idle machine)."""
     base, scene, _, _ = runs
     out = base / "steps3"
     r = run_pdem(3, scene, out, "--steps", "2000")
@@ -201,7 +203,9 @@ def test_first_2000_steps_on_3_ranks(runs):
     assert_same_bodies(bodies_at(base / "r2", 2000), got, "step 2000, 2 vs 3 ranks")
 
 
+@pytest.mark.slow
 def test_load_programs_start_from_the_prepared_bed(runs):
+    """slow: the reduced track's traffic again, on 3 ranks (about 20 s on an idle machine)."""
     base, scene, _, r2 = runs
     loading = base / "loading.toml"
     loading.write_text(SCENE.replace('program = "axles"', f'program = "axles"\nprepared = "{base / "r2"}"'))
@@ -219,7 +223,9 @@ def test_load_programs_start_from_the_prepared_bed(runs):
     assert "prepared from another scene (track.seed = 3 there, 4 here)" in r.stderr and r.stderr.count("\n") == 1
 
 
+@pytest.mark.slow
 def test_resume_in_the_middle_of_the_traffic_on_3_ranks(runs):
+    """slow: the rest of the reduced track's traffic on 3 ranks (about 15 s on an idle machine)."""
     base, scene, _, r2 = runs
     out = base / "resume3"
     shutil.copytree(base / "r2", out)
