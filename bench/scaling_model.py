@@ -38,8 +38,9 @@ measured) with L / spacing sleepers, and per step it adds to the model above:
          (alpha + 3 n_b 544 B / beta)                                                  [modelled]
   t(N, P) = b c N/P + c_g g + 2 (alpha + 72 g/2 / beta) + ceil(log2 P) alpha
             + ceil(log2 P) (alpha + 1632 n_b / beta) + u g + o
-The halo per slab g is measured too (ghosts of the 2-rank run = n_x h, one neighbour) and
-compared with n_x h from the measured n_x and h = 2 r_max + skin.
+The halo per slab side is measured (the ghosts of the busier rank of the 2-rank run: one
+neighbour); the track's cross-section is fixed, so it does not depend on N, and an interior slab
+has twice that. It is compared with n_x h from the measured n_x and h = 2 r_max + skin.
 """
 import argparse
 import json
@@ -195,7 +196,7 @@ def track_step(m, N, P, alpha, beta, c=None):
     c_g = 0.5 * c
     L = N / m["n_x"]
     n_b = L / m["spacing"]
-    g = m["n_x"] * m["h"] * (0 if P == 1 else 1 if P == 2 else 2)
+    g = m["g2"] * (0 if P == 1 else 1 if P == 2 else 2)  # measured ghosts per slab side (fixed cross-section)
     b = 1.0 if P == 1 else m["b"]
     t_comp = b * c * N / P + c_g * g
     lg = math.ceil(math.log2(P)) if P > 1 else 0
