@@ -181,8 +181,10 @@ def track_inputs(run1, run2):
     r_max = r1["radius"] * (1 + r1["radius_spread"])
     h = ld["halo"]
     pp = json.loads((HERE / "pingpong.json").read_text())
-    return {"n": n, "c": c, "c_compute": c_compute, "t1": r1["timers_total_max_s"] / r1["steps"], "t2": t2,
-            "compute2": compute2, "comm2": r2["timers_max_s"]["communication"] / r2["steps"], "g2": g2,
+    _, bed1, _, _ = load()  # the bed benchmark on an idle machine (bench/results.json, 1 rank)
+    c_idle = bed1["wall_s"] / bed1["steps"] / bed1["n_particles"]
+    return {"n": n, "c": c, "c_idle": c_idle, "c_compute": c_compute, "t1": r1["timers_total_max_s"] / r1["steps"],
+            "t2": t2, "compute2": compute2, "comm2": r2["timers_max_s"]["communication"] / r2["steps"], "g2": g2,
             "n_x": n_x, "h": h, "h_formula": 2 * r_max + 0.25 * r1["radius"], "b": ld["imbalance"],
             "work": ld["work"], "owned": ld["owned"], "spacing": r1["spacing"],
             "k": r2["steps"] / max(r2["rebuilds"], 1), "alpha": pp["sendrecv"]["alpha_s"],
@@ -210,6 +212,8 @@ def track_model(args):
     m["u"], m["o"] = measure_packing(int(m["g2"]), m["k"])
     print(f"measured on the track section ({m['n']} bodies, {m['steps'][0]} / {m['steps'][1]} steps on 1 / 2 ranks, "
           f"load average {m['uptime']}):")
+    print(f"  c_idle = {m['c_idle'] * 1e9:.1f} ns per sphere-step: the bed benchmark on an idle machine "
+          "(bench/results.json), for comparison")
     print(f"  c     = {m['c'] * 1e9:8.1f} ns per body-step, 1 rank, every part of the step "
           f"({m['t1'] * 1e3:.2f} ms/step; compute alone {m['c_compute'] * 1e9:.1f} ns)")
     print(f"  n_x   = {m['n_x']:8.0f} bodies per metre of track; h = {m['h'] * 1e3:.1f} mm (formula "
@@ -231,20 +235,22 @@ def track_model(args):
         print(f"\nmodel: N = {N:.0e} bodies: track L = {L:.1f} m ({L / m['spacing']:.0f} sleepers), "
               f"P_max = L/h = {p_max} (slabs thinner than the halo beyond)")
         print(f"  {'P':>5} {'T [m]':>7} {'bodies/rank':>11} {'ghosts':>7} {'halo frac':>9} {'t/step ms':>9} "
-              f"{'comm %':>6} {'E shm':>6} {'E net':>6}")
+              f"{'comm %':>6} {'E shm':>6} {'E net':>6} {'E net, c idle':>13}")
         for P in args.ranks:
             T = L / P
             es = []
             for _, a, b in cases:
                 t, tc, g, _ = track_step(m, N, P, a, b)
                 es.append((m["c"] * N / (P * t), t, tc, g))
+            t_i = track_step(m, N, P, 2e-6, 5e9, c=m["c_idle"])[0]
+            e_idle = m["c_idle"] * N / (P * t_i)
             ok = T >= m["h"]
             e_shm, t, tc, g = es[0]
             rows.append({"N": N, "P": P, "T": T, "bodies_per_rank": N / P, "ghosts": g, "halo_fraction": g / (N / P),
-                         "t_step": t, "comm_fraction": tc / t, "E_shm": e_shm, "E_net": es[1][0], "possible": ok,
-                         "P_max": p_max})
+                         "t_step": t, "comm_fraction": tc / t, "E_shm": e_shm, "E_net": es[1][0],
+                         "E_net_c_idle": e_idle, "possible": ok, "P_max": p_max})
             print(f"  {P:>5} {T:>7.4f} {N / P:>11.0f} {g:>7.0f} {g / (N / P):>9.3f} {t * 1e3:>9.3f} "
-                  f"{100 * tc / t:>6.1f} {e_shm:>6.2f} {es[1][0]:>6.2f}"
+                  f"{100 * tc / t:>6.1f} {e_shm:>6.2f} {es[1][0]:>6.2f} {e_idle:>13.2f}"
                   + ("" if ok else "   slab thinner than the halo: not possible"))
     out = {"inputs": {k: v for k, v in m.items()}, "rows": rows}
     (HERE / "track_scaling.json").write_text(json.dumps(out, indent=1) + "\n")
@@ -265,10 +271,12 @@ def plot_track(m, png):
         L = N / m["n_x"]
         p_max = int(L / m["h"])
         P = np.unique(np.round(np.logspace(0, np.log10(p_max), 60)).astype(int))
-        for (a, b), ls, what in (((m["alpha"], m["beta"]), "-", "shared memory"), ((2e-6, 5e9), "--", "network")):
-            e = [m["c"] * N / (p * track_step(m, N, p, a, b)[0]) for p in P]
+        for (a, b, c), ls, what in (((m["alpha"], m["beta"], m["c"]), "-", "shared memory, c measured"),
+                                    ((2e-6, 5e9, m["c"]), "--", "network, c measured"),
+                                    ((2e-6, 5e9, m["c_idle"]), ":", "network, c of the idle bench")):
+            e = [c * N / (p * track_step(m, N, p, a, b, c=c)[0]) for p in P]
             ax.semilogx(P, e, ls, color=colour, label=f"N = {N:.0e}, {what}")
-        ax.axvline(p_max, color=colour, lw=0.8, ls=":")
+        ax.axvline(p_max, color=colour, lw=0.8, ls="-.")
         ax.text(p_max, 0.02, f" P_max = {p_max}", color=colour, fontsize=8, rotation=90, va="bottom")
     for p in (16, 64, 256):
         ax.axvline(p, color="0.85", lw=0.8, zorder=0)
