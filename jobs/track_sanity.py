@@ -142,9 +142,11 @@ def report(out, names, dest, n_seeds):
         ax[0].plot(x, row, "o-", color="C0", alpha=0.6, label="soft subgrade" if s == 1 else None)
     for s, row in zip(seeds, stiff):
         ax[0].plot(x, row, "s--", color="C1", alpha=0.6, label="stiff subgrade" if s == 1 else None)
-    ax[0].plot(x, sym.mean(axis=0)[::-1], ":", color="C0", label="soft, mirrored mean")
+    ax[0].plot(x, sym.mean(axis=0), "-", color="k", lw=2, label="soft, mean over the seeds")
+    ax[0].plot(x, sym.mean(axis=0)[::-1], ":", color="k", lw=2, label="soft, mean mirrored (4 - k)")
     ax[0].invert_yaxis()
     ax[0].set(xlabel="sleeper", ylabel="permanent settlement [mm]", title="Symmetric loading, 3 cycles")
+    ax[0].set_xticks(x)
     ax[0].legend(fontsize="small")
     moving = []
     for seed in (1, 2):
