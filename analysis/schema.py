@@ -49,6 +49,9 @@ Kind "blast" (SPEC 2.5, blast paper section 3)
     ``/blast`` (no datasets) attrs ``plate_areal_mass`` [kg/m^2], ``ceiling_area`` [m^2],
     ``F0`` [N], ``tau`` [s].
 Kind "track" (SPEC 2.4). Sleepers are numbered 0..n_sleepers-1 along the track axis.
+    pdem writes ``/series`` `TRACK_SERIES` (``applied_load`` [N]: total applied load on the
+    sleepers, downward; ``ballast_force`` [N]: total force of the ballast on them, upward;
+    ``mean_settlement`` [m]: mean over the sleepers, downward).
     ``/track/sleeper_x`` [n_sleepers] [m]: position of each sleeper's centre along the track;
     ``/track/settlement`` [n_samples, n_sleepers] [m]: settlement of each sleeper (positive
     downward, zero at the start of traffic); ``/track/force`` [n_samples, n_sleepers] [N]:
@@ -127,6 +130,10 @@ RUN_SERIES = {"step": "-", "time": "s", "dt": "s", "kinetic_energy": "J", "elast
               "potential_energy": "J", "total_energy": "J", "max_overlap_ratio": "-"}
 BOX_TEST_SERIES = {"step": "-", "time": "s", "dt": "s", "sleeper_load": "N", "sleeper_force": "N",
                    "sleeper_settlement": "m", "kinetic_energy": "J", "contacts_per_particle": "-"}
+# the track section's /series (kind "track"; its per-sleeper rows are /track): total applied
+# load on the sleepers [N, down], total ballast force on them [N, up], mean settlement [m, down]
+TRACK_SERIES = {"step": "-", "time": "s", "dt": "s", "applied_load": "N", "ballast_force": "N",
+                "mean_settlement": "m", "kinetic_energy": "J", "contacts_per_particle": "-"}
 PREPARATION_SERIES = {"step": "-", "time": "s", "stage": "-", "n_spheres": "-", "kinetic_energy": "J",
                       "unbalanced_force": "-", "contacts_per_particle": "-", "bed_top": "m", "sleeper_z": "m"}
 # the blast run's record (kind "blast", pdem.scenes.blast): time 0 at the start of the impulse

@@ -1,6 +1,7 @@
 """Scaling model of the slab decomposition, from the measured MPI benchmark and ping-pong.
 
     python -m bench.scaling_model [--length 6 --width 4 --depth 0.5]
+    python -m bench.scaling_model --scene track --run1 RUN1 --run2 RUN2 [--png docs/scaling_track.png]
 
 Reads bench/results.json (MPI records, ranks 1 and 2, the largest size measured) and
 bench/pingpong.json (`python -m bench.pingpong` under mpiexec -n 2), and prints the model of
@@ -24,11 +25,29 @@ Model, per step, P ranks, slabs of thickness T = L/P along the track (x):
 The residual of the measured 2-rank communication time (waiting for the slower rank, load
 imbalance, CPU contention) is printed, not modelled.
 Efficiency E(P) = c N / (P t(N, P)). Interior slabs exist only while T >= h: P_max = L / h.
+
+``--scene track`` (`track_model`): the same model measured on the track section
+(`pdem.scenes.track`), from the ``scaling.json`` of a 1-rank and a 2-rank run of that scene
+(e.g. ``pdem run jobs/track_large_loading.toml --steps N`` from a prepared bed). Its bed has a
+fixed cross-section, so a track of N bodies is L = N / n_x long (n_x bodies per metre,
+measured) with L / spacing sleepers, and per step it adds to the model above:
+  b      load imbalance of the busiest rank after balancing (max/mean of owned bodies +
+         contacts, measured at 2 ranks; the sleepers make the work uneven along x)   [measured]
+  the rigid sleepers' force sums: one allreduce of 3 n_b accumulators of 68 int64 (exact,
+         rank-count independent sums, `comm.exact_sum_groups`) per step: ceil(log2 P)
+         (alpha + 3 n_b 544 B / beta)                                                  [modelled]
+  t(N, P) = b c N/P + c_g g + 2 (alpha + 72 g/2 / beta) + ceil(log2 P) alpha
+            + ceil(log2 P) (alpha + 1632 n_b / beta) + u g + o
+The halo per slab side is measured (the ghosts of the busier rank of the 2-rank run: one
+neighbour); the track's cross-section is fixed, so it does not depend on N, and an interior slab
+has twice that. It is compared with n_x h from the measured n_x and h = 2 r_max + skin.
 """
 import argparse
 import json
 import math
 from pathlib import Path
+
+import numpy as np
 
 HERE = Path(__file__).resolve().parent
 R_MEAN = 0.01625
@@ -150,5 +169,147 @@ def model(argv=None):
     return rows
 
 
+def track_inputs(run1, run2):
+    """The measured inputs of the track model from two runs' scaling.json (1 and 2 ranks)."""
+    r1 = json.loads((Path(run1) / "scaling.json").read_text())
+    r2 = json.loads((Path(run2) / "scaling.json").read_text())
+    if r1["ranks"] != 1 or r2["ranks"] != 2:
+        raise SystemExit(f"--run1 must be a 1-rank run and --run2 a 2-rank run (got {r1['ranks']}, {r2['ranks']})")
+    n = r1["bodies"]
+    compute = ("neighbours", "contacts", "integration")
+    c = r1["timers_total_max_s"] / r1["steps"] / n  # everything a 1-rank step costs, per body
+    c_compute = sum(r1["timers_max_s"][k] for k in compute) / r1["steps"] / n
+    t2 = r2["timers_total_max_s"] / r2["steps"]
+    compute2 = sum(r2["timers_max_s"][k] for k in compute) / r2["steps"]
+    ld = r2["loads"]
+    g2 = max(ld["ghosts"])  # 2 ranks: each has one neighbour
+    n_x = n / r1["track_length"]
+    r_max = r1["radius"] * (1 + r1["radius_spread"])
+    h = ld["halo"]
+    pp = json.loads((HERE / "pingpong.json").read_text())
+    _, bed1, _, _ = load()  # the bed benchmark on an idle machine (bench/results.json, 1 rank)
+    c_idle = bed1["wall_s"] / bed1["steps"] / bed1["n_particles"]
+    return {"n": n, "c": c, "c_idle": c_idle, "c_compute": c_compute, "t1": r1["timers_total_max_s"] / r1["steps"],
+            "t2": t2, "compute2": compute2, "comm2": r2["timers_max_s"]["communication"] / r2["steps"], "g2": g2,
+            "n_x": n_x, "h": h, "h_formula": 2 * r_max + 0.25 * r1["radius"], "b": ld["imbalance"],
+            "work": ld["work"], "owned": ld["owned"], "spacing": r1["spacing"],
+            "k": r2["steps"] / max(r2["rebuilds"], 1), "alpha": pp["sendrecv"]["alpha_s"],
+            "beta": pp["sendrecv"]["beta_B_per_s"], "uptime": [r1.get("uptime"), r2.get("uptime")],
+            "runs": [str(run1), str(run2)], "steps": [r1["steps"], r2["steps"]]}
+
+
+def track_step(m, N, P, alpha, beta, c=None):
+    """(t per step [s], comm part [s], ghosts of the busiest rank, sleepers) of the track model."""
+    c = m["c"] if c is None else c
+    c_g = 0.5 * c
+    L = N / m["n_x"]
+    n_b = L / m["spacing"]
+    g = m["g2"] * (0 if P == 1 else 1 if P == 2 else 2)  # measured ghosts per slab side (fixed cross-section)
+    b = 1.0 if P == 1 else m["b"]
+    t_comp = b * c * N / P + c_g * g
+    lg = math.ceil(math.log2(P)) if P > 1 else 0
+    t_comm = ((2 * (alpha + 72 * (g / 2) / beta) + lg * alpha + lg * (alpha + 3 * n_b * 544 / beta)
+               + m["u"] * g + m["o"]) if P > 1 else 0.0)
+    return t_comp + t_comm, t_comm, g, n_b
+
+
+def track_model(args):
+    m = track_inputs(args.run1, args.run2)
+    m["u"], m["o"] = measure_packing(int(m["g2"]), m["k"])
+    print(f"measured on the track section ({m['n']} bodies, {m['steps'][0]} / {m['steps'][1]} steps on 1 / 2 ranks, "
+          f"load average {m['uptime']}):")
+    print(f"  c_idle = {m['c_idle'] * 1e9:.1f} ns per sphere-step: the bed benchmark on an idle machine "
+          "(bench/results.json), for comparison")
+    print(f"  c     = {m['c'] * 1e9:8.1f} ns per body-step, 1 rank, every part of the step "
+          f"({m['t1'] * 1e3:.2f} ms/step; compute alone {m['c_compute'] * 1e9:.1f} ns)")
+    print(f"  n_x   = {m['n_x']:8.0f} bodies per metre of track; h = {m['h'] * 1e3:.1f} mm (formula "
+          f"{m['h_formula'] * 1e3:.1f} mm)")
+    print(f"  halo  = {m['g2']:8.0f} ghosts per slab at 2 ranks (model n_x h = {m['n_x'] * m['h']:.0f})")
+    print(f"  b     = {m['b']:8.3f} load imbalance max/mean at 2 ranks (work {m['work']}, owned {m['owned']})")
+    print(f"  u, o  = {m['u'] * 1e9:.1f} ns per ghost-step, {m['o'] * 1e6:.1f} us per step (packing, rebuild every "
+          f"{m['k']:.0f} steps); alpha = {m['alpha'] * 1e6:.2f} us, beta = {m['beta'] / 1e9:.2f} GB/s (ping-pong)")
+    t2m, _, _, _ = track_step(m, m["n"], 2, m["alpha"], m["beta"])
+    print(f"  2 ranks: measured {m['t2'] * 1e3:.2f} ms/step (speedup {m['t1'] / m['t2']:.2f}; compute "
+          f"{m['compute2'] * 1e3:.2f}, communication {m['comm2'] * 1e3:.2f} ms); model {t2m * 1e3:.2f} ms/step "
+          f"(speedup {m['t1'] / t2m:.2f})")
+    rows = []
+    cases = (("measured alpha, beta (shared memory)", m["alpha"], m["beta"]),
+             ("network alpha = 2 us, beta = 5 GB/s (assumed)", 2e-6, 5e9))
+    for N in (1e6, 1e7):
+        L = N / m["n_x"]
+        p_max = int(L / m["h"])
+        print(f"\nmodel: N = {N:.0e} bodies: track L = {L:.1f} m ({L / m['spacing']:.0f} sleepers), "
+              f"P_max = L/h = {p_max} (slabs thinner than the halo beyond)")
+        print(f"  {'P':>5} {'T [m]':>7} {'bodies/rank':>11} {'ghosts':>7} {'halo frac':>9} {'t/step ms':>9} "
+              f"{'comm %':>6} {'E shm':>6} {'E net':>6} {'E net, c idle':>13}")
+        for P in args.ranks:
+            T = L / P
+            es = []
+            for _, a, b in cases:
+                t, tc, g, _ = track_step(m, N, P, a, b)
+                es.append((m["c"] * N / (P * t), t, tc, g))
+            t_i = track_step(m, N, P, 2e-6, 5e9, c=m["c_idle"])[0]
+            e_idle = m["c_idle"] * N / (P * t_i)
+            ok = T >= m["h"]
+            e_shm, t, tc, g = es[0]
+            rows.append({"N": N, "P": P, "T": T, "bodies_per_rank": N / P, "ghosts": g, "halo_fraction": g / (N / P),
+                         "t_step": t, "comm_fraction": tc / t, "E_shm": e_shm, "E_net": es[1][0],
+                         "E_net_c_idle": e_idle, "possible": ok, "P_max": p_max})
+            print(f"  {P:>5} {T:>7.4f} {N / P:>11.0f} {g:>7.0f} {g / (N / P):>9.3f} {t * 1e3:>9.3f} "
+                  f"{100 * tc / t:>6.1f} {e_shm:>6.2f} {es[1][0]:>6.2f} {e_idle:>13.2f}"
+                  + ("" if ok else "   slab thinner than the halo: not possible"))
+    out = {"inputs": {k: v for k, v in m.items()}, "rows": rows}
+    (HERE / "track_scaling.json").write_text(json.dumps(out, indent=1) + "\n")
+    if args.png:
+        plot_track(m, args.png)
+    return rows
+
+
+def plot_track(m, png):
+    """E(P) of the track model for 1e6 and 1e7 bodies, measured and network messages; P_max marked."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(7, 4.5))
+    for N, colour in ((1e6, "C0"), (1e7, "C1")):
+        L = N / m["n_x"]
+        p_max = int(L / m["h"])
+        P = np.unique(np.round(np.logspace(0, np.log10(p_max), 60)).astype(int))
+        for (a, b, c), ls, what in (((m["alpha"], m["beta"], m["c"]), "-", "shared memory, c measured"),
+                                    ((2e-6, 5e9, m["c"]), "--", "network, c measured"),
+                                    ((2e-6, 5e9, m["c_idle"]), ":", "network, c of the idle bench")):
+            e = [c * N / (p * track_step(m, N, p, a, b, c=c)[0]) for p in P]
+            ax.semilogx(P, e, ls, color=colour, label=f"N = {N:.0e}, {what}")
+        ax.axvline(p_max, color=colour, lw=0.8, ls="-.")
+        ax.text(p_max, 0.02, f" P_max = {p_max}", color=colour, fontsize=8, rotation=90, va="bottom")
+    for p in (16, 64, 256):
+        ax.axvline(p, color="0.85", lw=0.8, zorder=0)
+    ax.set(xlabel="ranks P (slabs along the track)", ylabel="parallel efficiency E [-]", ylim=(0, 1.05),
+           title="Track section: modelled efficiency (inputs measured on 1 and 2 ranks)")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize="small")
+    fig.tight_layout()
+    fig.savefig(png, dpi=110)
+    plt.close(fig)
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--scene", choices=("bed", "track"), default="bed")
+    ap.add_argument("--run1", help="track: run directory of the 1-rank run (its scaling.json)")
+    ap.add_argument("--run2", help="track: run directory of the 2-rank run")
+    ap.add_argument("--png", help="track: write the efficiency plot there")
+    ap.add_argument("--ranks", type=int, nargs="+", default=None)
+    args, rest = ap.parse_known_args(argv)
+    if args.scene == "track":
+        if not (args.run1 and args.run2):
+            raise SystemExit("--scene track needs --run1 and --run2")
+        args.ranks = args.ranks or [2, 16, 64, 256]
+        return track_model(args)
+    return model(rest + (["--ranks", *map(str, args.ranks)] if args.ranks else []))
+
+
 if __name__ == "__main__":
-    model()
+    main()

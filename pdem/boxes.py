@@ -20,7 +20,7 @@ Imports nothing from pdem but errors and loads.
 import numpy as np
 
 from .errors import InputError
-from .loads import Constant, Haversine, Impulse
+from .loads import Constant, Haversine, Impulse, SleeperLoad
 from .state import DOF_ALL
 from .validate import number, vector3
 
@@ -91,9 +91,10 @@ class Boxes:
         m = number(f"{label}.mass", mass, 0.0, lo_open=True, allow="a number > 0 [kg]")
         lam = number(f"{label}.damping", damping, 0.0, 0.99, allow="in [0, 0.99] (Cundall's lambda_D)")
         mask = blocked_mask(label, blocked, fixed)
-        if load is not None and not isinstance(load, (Constant, Haversine, Impulse)):
+        if load is not None and not isinstance(load, (Constant, Haversine, Impulse, SleeperLoad)):
             raise InputError(
-                f"{label}.load = {load!r}: must be None or a pdem.loads program (Haversine, Constant, Impulse)"
+                f"{label}.load = {load!r}: must be None or a pdem.loads program (Haversine, Constant, Impulse, "
+                "SleeperLoad)"
             )
         d = vector3(f"{label}.direction", direction)
         norm = float(np.sqrt(d @ d))

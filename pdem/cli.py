@@ -55,7 +55,8 @@ def main(argv=None):
     r.add_argument("scene", help="scene file, e.g. jobs/deposition.toml")
     r.add_argument("--out", default=None, help="output directory (default runs/<scene name>)")
     r.add_argument("--steps", type=int, default=None,
-                   help="override run.steps (the total of the run: a resumed run continues up to it)")
+                   help="override run.steps (the total of the run: a resumed run continues up to it); a track "
+                        "scene stops with a checkpoint at step N (run again without it to continue)")
     r.add_argument("--fresh", action="store_true",
                    help="ignore and remove the checkpoints in OUT/checkpoints and start from step 0")
     sub.add_parser("campaign", help="campaigns of runs: expand, run, slurm, status (docs/campaigns.md)", add_help=False)

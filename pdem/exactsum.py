@@ -46,6 +46,7 @@ __all__ = [
     "exact_sum_acc",
     "exact_sum_rows",
     "exact_sum_rows_acc",
+    "exact_sum_groups_acc",
 ]
 
 NVAL = 67  # value limbs: 2**-1074 .. 2**1070 and a signed top limb (room for ~2**63 x DBL_MAX)
@@ -230,6 +231,22 @@ def exact_sum_rows_acc(values):
             acc_add(accs[j], values[i, j])
     for j in range(k):
         acc_normalize(accs[j])
+    return accs
+
+
+@njit(cache=True)
+def exact_sum_groups_acc(values, group, n_groups):
+    """Normalised accumulators of the column sums of ``values[n, k]`` per group: row i adds to
+    group ``group[i]`` (0 <= group < n_groups): ``int64[n_groups * k, NLIMBS]``, group-major.
+    O(n k), whatever the number of groups (e.g. the force on each of many rigid boxes)."""
+    n, k = values.shape
+    accs = np.zeros((n_groups * k, NLIMBS), dtype=np.int64)
+    for i in range(n):
+        g = group[i]
+        for j in range(k):
+            acc_add(accs[g * k + j], values[i, j])
+    for r in range(n_groups * k):
+        acc_normalize(accs[r])
     return accs
 
 

@@ -136,23 +136,17 @@ class BoundaryContacts(ContactKind):
         """[n_boundaries, 3] total force of the spheres on each boundary [N]: an exact sum over the
         contact rows of all ranks (each contact is held by the owner of its sphere), so every
         rank gets the same bits whatever the rank count."""
-        nb = len(self.boundary)
         rows = self.contacts.real_rows()
-        vals = np.zeros((len(rows), 3 * nb))
-        cols = 3 * self.contacts.j[rows][:, None] + np.arange(3)[None, :]
-        vals[np.arange(len(rows))[:, None], cols] = -self.contacts.force[rows]
-        return np.asarray(comm.exact_sum_rows(vals), np.float64).reshape(nb, 3)
+        return comm.exact_sum_groups(-self.contacts.force[rows], self.contacts.j[rows], len(self.boundary))
 
     def stiffness_totals(self, comm):
         """[n_boundaries] Σ (k_n + k_s) over each boundary's real contacts, summed exactly over all
         ranks [N/m]."""
-        nb = len(self.boundary)
         rows = self.contacts.real_rows()
         kn, ks = self.law.dt_stiffness(self.contacts.params[rows], self.contacts.history[rows],
                                        self.contacts.overlap[rows])
-        vals = np.zeros((len(rows), nb))
-        vals[np.arange(len(rows)), self.contacts.j[rows]] = kn + ks
-        return np.asarray(comm.exact_sum_rows(vals), np.float64).reshape(nb)
+        k = (np.asarray(kn, np.float64) + np.asarray(ks, np.float64)).reshape(-1, 1)
+        return comm.exact_sum_groups(k, self.contacts.j[rows], len(self.boundary)).reshape(-1)
 
 
 def make_kinds(law, walls, facets, boxes):

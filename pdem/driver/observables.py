@@ -68,3 +68,96 @@ def box_positions(sim):
     if sim.boxes is None:
         return np.zeros((0, 3))
     return sim.boxes.center.copy()
+
+
+def box_gaps(sim, floor=0.0):
+    """[n_boxes] void under each rigid box [m] (collective): from its base down to the top
+    (z + r) of the highest sphere whose centre lies under the box's footprint and below its
+    base; 0 where the box rests on (or presses into) the ballast; base − ``floor`` if no sphere
+    is under it. A max reduction: the same bits on any rank count."""
+    bx = sim.boxes
+    if bx is None:
+        return np.zeros(0)
+    p = sim.particles
+    nl = p.n_local
+    pos, r = p.pos[:nl], p.radius[:nl]
+    top = np.full(len(bx), -np.inf)
+    for k in range(len(bx)):
+        c, h = bx.center[k], bx.half[k]
+        base = c[2] - h[2]
+        under = (np.abs(pos[:, 0] - c[0]) <= h[0]) & (np.abs(pos[:, 1] - c[1]) <= h[1]) & (pos[:, 2] < base)
+        if under.any():
+            top[k] = float(np.max(pos[under, 2] + r[under]))
+    top = np.asarray(sim.comm.allreduce_max(top), np.float64)
+    base = bx.center[:, 2] - bx.half[:, 2]
+    return np.where(np.isfinite(top), np.maximum(base - top, 0.0), base - floor)
+
+
+def contact_force_samples(sim):
+    """Forces of every real contact, each once, in key order, on rank 0 (None elsewhere):
+    ``sleeper_ballast`` |normal force| [N] of each sphere–box contact and ``sleeper_index``
+    (its box), ``ballast_ballast`` |total force| [N] of each sphere pair. Collective; a pair
+    held by two ranks (straddling a slab edge) is counted once, so the arrays do not depend
+    on the rank count."""
+    out = {}
+    for name, second in (("sphere_box", "index"), ("sphere_sphere", "gid2")):
+        if sim.kind(name) is None:
+            continue
+        c = sim.contacts(name)
+        key = np.stack([c["gid1"], c[second]], axis=1).astype(np.int64)
+        value = np.linalg.norm(c["normal_force"] if name == "sphere_box" else c["force"], axis=1)
+        keys, values = sim.comm.gather_rows(key), sim.comm.gather_rows(value)
+        if sim.comm.rank == 0:
+            _, first = np.unique(keys[:, 0] * (1 << 32) + keys[:, 1], return_index=True)  # sorted by key
+            out[name] = (keys[first], values[first])
+    if sim.comm.rank != 0:
+        return None
+    res = {}
+    if "sphere_box" in out:
+        res["sleeper_ballast"] = out["sphere_box"][1]
+        res["sleeper_index"] = out["sphere_box"][0][:, 1]
+    if "sphere_sphere" in out:
+        res["ballast_ballast"] = out["sphere_sphere"][1]
+    return res
+
+
+def rank_loads(sim):
+    """Work and halo of every rank (collective; the same dict on every rank): ``owned`` bodies,
+    ``ghosts``, real ``contacts`` counted by the rank, the domain's load measure ``work`` =
+    owned bodies + the contacts of their rows (what the slab balancer equalises), its
+    ``imbalance`` max/mean [-], the slab ``edges`` [m] and halo width [m], and the cumulative
+    ``migrated`` bodies and ``rebalanced`` edge moves of the domain."""
+    p = sim.particles
+    nl = p.n_local
+    contacts = sum(len(kind.owned_rows(nl)) for kind in sim.kinds)
+    work = float(nl)  # as `SlabDomain`'s balancer counts: 1 per owned body + 1 per contact row end it owns
+    for kind in sim.kinds:
+        for idx in kind.body_rows(kind.contacts.real_rows()):
+            work += float(np.count_nonzero((idx >= 0) & (idx < nl)))
+    d = sim.domain
+    row = np.array([[p.n_local, p.n_ghost, contacts, work, getattr(d, "n_migrated", 0)]], np.float64)
+    rows = sim.comm.allgather_rows(row)
+    w = rows[:, 3]
+    return {"owned": rows[:, 0].astype(int).tolist(), "ghosts": rows[:, 1].astype(int).tolist(),
+            "contacts": rows[:, 2].astype(int).tolist(), "work": w.tolist(),
+            "imbalance": float(w.max() / w.mean()) if w.mean() > 0 else 1.0,
+            "edges": None if getattr(d, "edges", None) is None else [float(e) for e in d.edges],
+            "halo": float(getattr(d, "halo", 0.0)), "migrated": int(rows[:, 4].sum()),
+            "rebalanced": int(getattr(d, "n_rebalanced", 0))}
+
+
+def box_rest(sim, v_ref):
+    """(largest |net force| / weight [-], largest speed / v_ref [-]) over the rigid boxes'
+    free translations: contact force + applied load + weight (replicated: the same on every
+    rank). 0, 0 without boxes."""
+    bx = sim.boxes
+    if bx is None:
+        return 0.0, 0.0
+    f_ratio, v_ratio = 0.0, 0.0
+    for k in range(len(bx)):
+        free = np.array([not (int(bx.blocked[k]) >> a) & 1 for a in range(3)])
+        weight = bx.mass[k] * float(np.linalg.norm(sim.gravity))
+        net = bx.contact_force[k] + bx.load_force[k] + bx.mass[k] * sim.gravity
+        f_ratio = max(f_ratio, float(np.linalg.norm(net[free])) / weight if weight > 0 else 0.0)
+        v_ratio = max(v_ratio, float(np.linalg.norm(bx.velocity[k][free])) / v_ref)
+    return f_ratio, v_ratio

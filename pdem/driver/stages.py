@@ -16,6 +16,10 @@ checkpoint under the scene's name) is where the pipeline is: the stage index, wh
 opening operations were applied, its start time, the next free gid, a summary row per finished
 stage and the scene's own entries.
 
+A fresh run may also start from another run's stage-end checkpoint (`StagedRun.start_point`,
+e.g. the track section's prepared bed: preparation once, loading many), and a run given
+``--steps N`` stops with a checkpoint at step N (a later run without it continues).
+
 Table operations (`empty_tables`, `remove_above`, `append_bodies`, `next_free_gid`,
 `next_free_clump`, `clump_tables`, `append_tables`) work on the global tables of
 `pdem.checkpoint_state` and are pure functions. A stage with clumps declares them in its scene
@@ -132,8 +136,14 @@ class StagedRun:
         self.state = {"stage": 0, "started": False, "stage_t0": 0.0, "next_gid": 0, "stages": [],
                       **self.initial_state()}
         self.tables, self.meta = empty_tables(), None
+        self.stop_step = None  # `pdem run --steps N`: stop with a checkpoint at step N of the run
+        self.stopped = False
         resume = resume_point(comm, self.loop.ckdir, fresh)
-        if resume is not None:
+        if resume is None:
+            start = self.start_point()
+            if start is not None:  # a fresh run from another run's stage-end checkpoint
+                self.tables, self.meta, self.state = start
+        else:
             self.tables, self.meta = read_checkpoint(resume)
             if self.meta.get("scene_file") != self.scene_text or self.NAME not in self.meta:
                 raise CheckpointError(
@@ -145,7 +155,7 @@ class StagedRun:
                           f"{self.STAGES[k] if k < len(self.STAGES) else 'none left'}, t = {self.meta['time']:.6e} s, "
                           f"written by pdem {self.meta.get('pdem_version')})")
             self.loop.last_ckpt_step = int(self.meta["step"])
-        self.restart_step = int(self.meta["step"]) if self.meta else None
+        self.restart_step = int(self.meta["step"]) if resume is not None else None
         every = self.run_cfg["snapshot_every"]
         self.snaps = (SnapshotWriter(self.out, comm=comm, append=self.restart_step is not None,
                                      restart_step=self.restart_step, log=lambda m: print(m, flush=True))
@@ -155,6 +165,11 @@ class StagedRun:
         self.open_outputs()
 
     # ------------------------------------------------------------------ hooks
+    def start_point(self):
+        """(tables, meta, state) a fresh run starts from instead of stage 0, or None (default):
+        e.g. a prepared bed, the checkpoint of another run at the end of its preparation."""
+        return None
+
     def initial_state(self):
         """The scene's own entries of ``state`` at the start."""
         return {}
@@ -193,6 +208,13 @@ class StagedRun:
     def close_stage(self, stage, sim):
         """What the scene does at the end of ``stage`` before its checkpoint."""
 
+    def collect(self, sim):
+        """Every rank at the end of a run that was not stopped by a signal (collectives allowed):
+        what `finish` or `report_stop` needs from all ranks."""
+
+    def report_stop(self, sim, wall_s):
+        """Rank 0 after a run stopped by ``--steps``."""
+
     def finish(self, sim, wall_s):
         """Rank 0 at the end of the last stage: plots, analysis, summary."""
 
@@ -208,16 +230,32 @@ class StagedRun:
             sim, scene = self.build_stage(stage)
             on_step, until, every, t_end = self.program(stage, sim, scene)
             eta_step = sim.step + int(max(t_end - sim.time, 0.0) / max(sim.dt, 1e-300))
-            if self.loop.advance(sim, self.max_steps(stage), on_step=on_step, until=until, until_every=every,
-                                 last_step=eta_step) == "signal":
+            n_steps = self.max_steps(stage)
+            if self.stop_step is not None:
+                n_steps = min(n_steps, max(self.stop_step - sim.step, 0))
+            outcome = self.loop.advance(sim, n_steps, on_step=on_step, until=until, until_every=every,
+                                        last_step=eta_step)
+            if outcome == "signal":
+                break
+            if outcome == "done" and self.stop_step is not None and sim.step >= self.stop_step:
+                self.loop.checkpoint(sim, f"--steps {self.stop_step} reached")
+                self.loop.log(f"stopped at step {sim.step} (--steps {self.stop_step}) in stage {stage}; run again "
+                              "without --steps to continue")
+                self.stopped = True
                 break
             self.end_stage(stage, sim, wall0)
         self.close_outputs()
-        if sim is None:
+        wall_s = _time.perf_counter() - self.t_start
+        if sim is not None and self.loop.status == 0:
+            self.collect(sim)
+        if self.stopped:
+            if self.comm.rank == 0:
+                self.report_stop(sim, wall_s)
+        elif sim is None:
             self.loop.log(f"the run in {self.out} is complete (its newest checkpoint is after the last stage); nothing "
                           "to run (--fresh starts over)")
         elif self.loop.status == 0 and self.comm.rank == 0:
-            self.finish(sim, _time.perf_counter() - self.t_start)
+            self.finish(sim, wall_s)
         self.loop.close()
         return self.loop.status
 
@@ -267,6 +305,7 @@ class StagedRun:
         written = self.loop.checkpoint(sim, f"end of stage {stage}")
         if state["stage"] < len(self.STAGES):
             self.tables, self.meta = read_checkpoint(written)
+        return written
 
     def stage_record(self, stage, sim):
         """Extra entries of the stage's summary row (JSON-able)."""

@@ -85,6 +85,17 @@ def _empty_rows(meta, nrows=0):
     return np.empty(shape, dtype=np.dtype(chr(int(meta[2]))))
 
 
+def _groups_args(values, group, n_groups):
+    """``values`` as float64[n, k], ``group`` as int64[n] within [0, n_groups), and k."""
+    v = np.ascontiguousarray(values, dtype=np.float64)
+    if v.ndim != 2:
+        raise ValueError(f"exact_sum_groups needs a 2-D array, got shape {v.shape}")
+    g = np.ascontiguousarray(group, dtype=np.int64).reshape(-1)
+    if g.shape[0] != v.shape[0] or (g.size and (g.min() < 0 or g.max() >= n_groups)):
+        raise ValueError(f"exact_sum_groups: {g.shape[0]} group ids in [0, {n_groups}) needed for {v.shape[0]} rows")
+    return v, g, v.shape[1]
+
+
 def _cpu_set():
     try:
         return frozenset(os.sched_getaffinity(0))
@@ -136,6 +147,10 @@ class SerialComm:
         if v.ndim != 2:
             raise ValueError(f"exact_sum_rows needs a 2-D array, got shape {v.shape}")
         return exactsum.exact_sum_rows(v)
+
+    def exact_sum_groups(self, values, group, n_groups):
+        v, g, k = _groups_args(values, group, n_groups)
+        return exactsum.acc_values(exactsum.exact_sum_groups_acc(v, g, n_groups)).reshape(n_groups, k)
 
     def gather_rows(self, array, root=0):
         a, _ = _rows_array(array)
@@ -236,6 +251,16 @@ class MpiComm:
         total = np.empty_like(accs)
         self.comm.Allreduce(accs, total, op=self._MPI.SUM)
         return exactsum.acc_values(total)
+
+    def exact_sum_groups(self, values, group, n_groups):
+        """Column sums of all ranks' ``values[n_local, k]`` per group (row i in group ``group[i]``,
+        0 <= group < n_groups, the same n_groups and k everywhere): ``[n_groups, k]``, exact and
+        order-independent like `exact_sum_rows`, in O(n_local k) whatever n_groups."""
+        v, g, k = _groups_args(values, group, n_groups)
+        accs = exactsum.exact_sum_groups_acc(v, g, n_groups)
+        total = np.empty_like(accs)
+        self.comm.Allreduce(accs, total, op=self._MPI.SUM)
+        return exactsum.acc_values(total).reshape(n_groups, k)
 
     # ---- gathers
     def _row_layout(self, array):

@@ -32,41 +32,35 @@ series ``sleeper_load``, ``sleeper_force`` [N, ballast reaction, positive up],
 ``preparation.png``, the analysis of `analysis.box` (``loops.png``, ``settlement.png``,
 ``stiffness.png``, ``analysis.txt``) and ``summary.txt`` with the timing table.
 """
-from math import cos, pi, sin
-
 import numpy as np
-from analysis.schema import BOX_TEST_SERIES, PREPARATION_SERIES
+from analysis.schema import BOX_TEST_SERIES
 
 from ..config import check_keys, run_settings, scene_from_dict
-from ..driver import observables
 from ..driver.cycles import CycleRecorder
-from ..driver.plain import write_snapshot
-from ..driver.plots import plot_energy, save_figure, series_figure
+from ..driver.preparation import PREPARATION_DEFAULTS, PREPARATION_STAGES, PreparedRun, add_cloud, \
+    check_preparation, plot_preparation
 from ..driver.results import series_writer, write_cycles, write_root_attrs
-from ..driver.stages import StagedRun, append_bodies, check_no_steps, empty_tables, remove_above
+from ..driver.stages import check_no_steps, empty_tables, remove_above
 from ..errors import InputError
-from ..generators import loose_cloud
 from ..loads import Haversine
 from ..validate import number
 
-STAGES = ("pour", "refill", "vibrate", "settle", "load")
-# [box_test] keys and defaults (SPEC.md 2.3, thesis table 5.1; stiffness is in [materials])
+STAGES = PREPARATION_STAGES + ("load",)
+# [box_test] keys and defaults (SPEC.md 2.3, thesis table 5.1; stiffness is in [materials]);
+# the preparation pipeline's keys (radius, seed, settle_*, vibration_* ...) are
+# `pdem.driver.preparation.PREPARATION_DEFAULTS`
 DEFAULTS = {
     "box": [0.7, 0.3, 0.45],           # inner length x, width y, height z [m]
     "ballast_material": "ballast", "wall_material": "steel", "base_material": "rubber",
     "sleeper_material": "steel",
-    "radius": 0.01625, "radius_spread": 0.0, "seed": 1,
-    "packing_fraction": 0.58,           # settled solid fraction assumed to size the clouds [-]
-    "overfill": 1.2,                    # cloud volume / volume to fill [-]
+    **PREPARATION_DEFAULTS,
     "cut_height": 0.30,                 # first fill cut = sleeper bottom [m]
     "height": 0.45,                     # final ballast height [m]
     "sleeper_size": [0.25, 0.3, 0.15],  # [m]
     "sleeper_mass": 34.0,               # [kg]
-    "settle_ratio": 0.01, "settle_min_time": 0.2, "settle_max_time": 3.0, "check_every": 200,
-    "vibration_time": 0.5, "vibration_frequency": 10.0, "vibration_acceleration": 5.0,
-    "vibration_friction_factor": 0.1,
     "f_min": 3000.0, "f_max": 40000.0, "frequency": 1.0, "cycles": 10,
 }
+WHERE = ("box_test", "beside the sleeper")
 
 
 # ---------------------------------------------------------------------------- settings
@@ -84,18 +78,12 @@ def box_settings(doc):
     for k in ("ballast_material", "wall_material", "base_material", "sleeper_material"):
         if not isinstance(c[k], str) or c[k] not in doc.get("materials", {}):
             raise InputError(f"box_test.{k} = {c[k]!r}: no [materials.{c[k]}] table in the scene file")
-    positive = ("radius", "packing_fraction", "overfill", "cut_height", "height", "sleeper_mass", "settle_ratio",
-                "settle_max_time", "vibration_frequency", "frequency")
-    for k in positive:
+    check_preparation("box_test", c)
+    for k in ("cut_height", "height", "sleeper_mass", "frequency"):
         c[k] = number(f"box_test.{k}", c[k], 0.0, lo_open=True)
-    for k in ("settle_min_time", "vibration_time", "vibration_acceleration", "f_min", "f_max"):
+    for k in ("f_min", "f_max"):
         c[k] = number(f"box_test.{k}", c[k], 0.0)
-    for k in ("seed", "cycles", "check_every"):
-        c[k] = number(f"box_test.{k}", c[k], 0 if k == "seed" else 1, integer=True)
-    c["radius_spread"] = number("box_test.radius_spread", c["radius_spread"], 0.0, 1.0, hi_open=True,
-                                allow="in [0, 1)")
-    c["vibration_friction_factor"] = number("box_test.vibration_friction_factor", c["vibration_friction_factor"], 0.0,
-                                            1.0, lo_open=True, allow="in (0, 1]")
+    c["cycles"] = number("box_test.cycles", c["cycles"], 1, integer=True)
     if c["f_max"] < c["f_min"]:
         raise InputError(f"box_test.f_max = {c['f_max']!r}: must be >= f_min = {c['f_min']!r} [N]")
     if not c["cut_height"] < c["height"] <= c["box"][2]:
@@ -116,26 +104,6 @@ def sleeper_geometry(c, bottom):
     bx, sz = np.asarray(c["box"], float), np.asarray(c["sleeper_size"], float)
     center = np.array([bx[0] / 2, bx[1] / 2, bottom + sz[2] / 2])
     return center, sz / 2
-
-
-def cloud_count(c, volume):
-    """Spheres to fill ``volume`` [m³] at the packing fraction, times the overfill factor."""
-    r, s = c["radius"], c["radius_spread"]
-    lo, hi = r * (1 - s), r * (1 + s)
-    mean_r3 = r**3 if s == 0 else (hi**4 - lo**4) / (4 * (hi - lo))
-    return max(int(np.ceil(c["overfill"] * c["packing_fraction"] * volume / (4.0 / 3.0 * pi * mean_r3))), 1)
-
-
-def cloud(c, lo_xy, hi_xy, z0, volume, seed):
-    """A loose cloud filling ``volume`` over the rectangle lo_xy..hi_xy, from height z0 up."""
-    n = cloud_count(c, volume)
-    r_max = c["radius"] * (1 + c["radius_spread"])
-    a = 2 * r_max * 1.05
-    per_layer = np.prod(np.floor((np.asarray(hi_xy) - np.asarray(lo_xy)) / a))
-    if per_layer < 1:
-        raise InputError(f"box_test.radius = {c['radius']!r}: spheres do not fit beside the sleeper")
-    top = z0 + np.ceil(n / per_layer) * a
-    return loose_cloud([lo_xy[0], lo_xy[1], z0], [hi_xy[0], hi_xy[1], top], n, c["radius"], c["radius_spread"], seed)
 
 
 # ---------------------------------------------------------------------------- stage scenes
@@ -163,35 +131,7 @@ def stage_scene(doc, c, stage, tables, load_start=None, sleeper_center=None):
     return scene
 
 
-def add_cloud(tables, doc, c, lo_xy, hi_xy, z0, volume, seed, first_gid):
-    """``tables`` with a loose cloud of new ballast spheres (gids from ``first_gid``) appended."""
-    pos, radius = cloud(c, lo_xy, hi_xy, z0, volume, seed)
-    return append_bodies(tables, pos, radius, doc["materials"][c["ballast_material"]]["density"],
-                         list(doc["materials"]).index(c["ballast_material"]), first_gid)
-
-
-def shaking(c, t):
-    """Pseudo-acceleration [m/s²] of the shaken box at time t since the vibration started."""
-    a, w = c["vibration_acceleration"], 2.0 * pi * c["vibration_frequency"]
-    return np.array([a * sin(w * t), a * cos(w * t), 0.0])
-
-
 # ---------------------------------------------------------------------------- records
-def prep_sample(sim, stage):
-    e = sim.energy()
-    return {
-        "step": sim.step,
-        "time": sim.time,
-        "stage": STAGES.index(stage),
-        "n_spheres": sim.comm.allreduce_sum_int(sim.particles.n_local),
-        "kinetic_energy": e["kinetic"] + e["rotational"],
-        "unbalanced_force": observables.unbalanced_force(sim),
-        "contacts_per_particle": sim.contacts_per_particle(),
-        "bed_top": observables.bed_top(sim),
-        "sleeper_z": float(sim.boxes.center[0, 2]) if sim.boxes is not None else float("nan"),
-    }
-
-
 def load_sample(sim, reference, load=None):
     """A row of the load record; ``reference`` is the sleeper centre where cycling started."""
     e = sim.energy()
@@ -227,10 +167,11 @@ def run(path, doc, out_dir, comm, steps=None, fresh=False):
     return BoxTestRun(path, doc, out_dir, comm, fresh).run()
 
 
-class BoxTestRun(StagedRun):
-    """One box test on this process's ranks (`pdem.driver.stages.StagedRun`): the stages, their
-    records (preparation.h5, results.h5 with the cycles) and the finishing analysis. The scene's
-    ``state`` adds the load start and the cycle recorder."""
+class BoxTestRun(PreparedRun):
+    """One box test on this process's ranks: the preparation pipeline
+    (`pdem.driver.preparation.PreparedRun`) in the box, then the cyclic load stage, its records
+    (results.h5 with the cycles) and the finishing analysis. The scene's ``state`` adds the load
+    start and the cycle recorder."""
 
     NAME = "box_test"
     STAGES = STAGES
@@ -246,173 +187,96 @@ class BoxTestRun(StagedRun):
     def checkpoint_state(self):
         return {**self.state, "recorder": self.recorder.state() if self.recorder else None}
 
-    def open_outputs(self):
+    def open_results(self):
         restart, comm = self.restart_step, self.comm
         self.results = self.out / "results.h5"
-        self.prep = series_writer(self.out / "preparation.h5", PREPARATION_SERIES, comm, restart_step=restart)
         self.series = series_writer(self.results, BOX_TEST_SERIES, comm, restart_step=restart)
-        self.loop.flush += [self.prep, self.series]
+        self.loop.flush.append(self.series)
         if comm.rank == 0:
             doc = self.doc
             write_root_attrs(self.results, {k: doc[k] for k in ("simulation", "materials", "box_test") if k in doc},
                              "box_test")
 
-    def close_outputs(self):
-        self.prep.close()
+    def close_results(self):
         self.series.close()
 
-    def open_stage(self, stage, tables):
-        c, doc, state = self.c, self.doc, self.state
+    # ------------------------------------------------------------------ preparation in the box
+    def pour(self, tables):
+        c = self.c
+        lx, ly, _ = c["box"]
+        tables = add_cloud(empty_tables(), self.doc, c, (0.0, 0.0), (lx, ly), 0.0, lx * ly * c["cut_height"], c["seed"],
+                           0, WHERE)
+        return tables, f"poured {len(tables['particles']['gid'])} spheres"
+
+    def refill(self, tables):
+        c, doc = self.c, self.doc
         lx, ly, _ = c["box"]
         h1, h2 = c["cut_height"], c["height"]
-        if stage == "pour":
-            tables = add_cloud(empty_tables(), doc, c, (0.0, 0.0), (lx, ly), 0.0, lx * ly * h1, c["seed"], 0)
-            return tables, f"poured {len(tables['particles']['gid'])} spheres"
-        if stage == "refill":
-            tables, removed = remove_above(tables, h1)
-            center, half = sleeper_geometry(c, h1)
-            x0, x1 = center[0] - half[0], center[0] + half[0]
-            gid = state["next_gid"]
-            n0 = len(tables["particles"]["gid"])
-            for k, (a, b) in enumerate(((0.0, x0), (x1, lx))):
-                if b - a <= 0:
-                    continue
-                tables = add_cloud(
-                    tables, doc, c, (a, 0.0), (b, ly), h1, (b - a) * ly * (h2 - h1), c["seed"] + 1000 + k, gid
-                )
-                gid = int(tables["particles"]["gid"].max()) + 1
-            return tables, (f"removed {removed} spheres above {h1} m, placed the sleeper, poured "
-                            f"{len(tables['particles']['gid']) - n0} spheres beside it")
-        if stage == "vibrate":
-            tables, removed = remove_above(tables, h2)
-            return tables, f"removed {removed} spheres above {h2} m"
-        if stage == "load":
-            state["load_start"] = float(self.meta["time"]) if self.meta else 0.0
+        tables, removed = remove_above(tables, h1)
+        center, half = sleeper_geometry(c, h1)
+        x0, x1 = center[0] - half[0], center[0] + half[0]
+        gid = self.state["next_gid"]
+        n0 = len(tables["particles"]["gid"])
+        for k, (a, b) in enumerate(((0.0, x0), (x1, lx))):
+            if b - a <= 0:
+                continue
+            tables = add_cloud(tables, doc, c, (a, 0.0), (b, ly), h1, (b - a) * ly * (h2 - h1), c["seed"] + 1000 + k,
+                               gid, WHERE)
+            gid = int(tables["particles"]["gid"].max()) + 1
+        return tables, (f"removed {removed} spheres above {h1} m, placed the sleeper, poured "
+                        f"{len(tables['particles']['gid']) - n0} spheres beside it")
+
+    def trim(self, tables):
+        h2 = self.c["height"]
+        tables, removed = remove_above(tables, h2)
+        return tables, f"removed {removed} spheres above {h2} m"
+
+    def open_load_stage(self, stage, tables):
+        self.state["load_start"] = float(self.meta["time"]) if self.meta else 0.0
         return tables, ""
 
     def stage_scene(self, stage, tables):
         center = tables["boxes"]["center"][0] if "boxes" in tables else None
         return stage_scene(self.doc, self.c, stage, tables, self.state["load_start"], center)
 
-    def prepare(self, stage, sim, scene, mid_stage):
-        if stage == "vibrate":
-            c = self.c
-            sim.set_friction_scale(c["vibration_friction_factor"])
-            sim.gravity = np.asarray(scene.settings["gravity"], np.float64) + shaking(
-                c, sim.time - self.state["stage_t0"]
-            )
+    def bodies_note(self, sim):
+        return "" if sim.boxes is None else f", sleeper bottom {sim.boxes.center[0, 2] - sim.boxes.half[0, 2]:.4f} m"
 
-    def max_steps(self, stage):
-        return 0 if stage == "vibrate" and self.c["vibration_time"] == 0 else 10**15
-
-    def program(self, stage, sim, scene):
+    # ------------------------------------------------------------------ cyclic loading
+    def load_program(self, stage, sim, scene):
         c, state, run = self.c, self.state, self.run_cfg
-        t0 = state["stage_t0"]
-        if stage == "load":
-            self.recorder = rec = CycleRecorder(scene.boxes.loads[0])
-            if state["recorder"] is not None:
-                rec.restore(state["recorder"])
-            else:
-                rec.reference = sim.boxes.center[0].copy()
-
-            def on_step(sim):
-                done = rec.sample_box(sim, 0)
-                if done is not None:
-                    done["step"] = sim.step
-                    write_cycles(self.results, cycle_columns(rec), self.comm)
-                    self.loop.log(
-                        f"cycle {done['cycle'] + 1}/{c['cycles']}: settlement start "
-                        f"{1e3 * done['settlement_start']:.3f} mm, peak {1e3 * done['settlement_peak']:.3f} mm, "
-                        f"end {1e3 * done['settlement_end']:.3f} mm; ballast force {done['force_min']:.1f} .. "
-                        f"{done['force_max']:.1f} N"
-                    )
-                if run["output_every"] and sim.step % run["output_every"] == 0:
-                    self.series.append(load_sample(sim, rec.reference))
-                self.snapshot(sim)
-
-            return (
-                on_step,
-                lambda sim: len(rec.records) >= c["cycles"],
-                1,
-                state["load_start"] + c["cycles"] / c["frequency"],
-            )
-        if sim.step == 0:  # later stages start at the step of the row that ended the last one
-            self.prep.append(prep_sample(sim, stage))
-            if self.snaps is not None:
-                write_snapshot(self.snaps, sim)
-        g = np.asarray(scene.settings["gravity"], np.float64)
+        self.recorder = rec = CycleRecorder(scene.boxes.loads[0])
+        if state["recorder"] is not None:
+            rec.restore(state["recorder"])
+        else:
+            rec.reference = sim.boxes.center[0].copy()
 
         def on_step(sim):
-            if stage == "vibrate":
-                sim.gravity = g + shaking(c, sim.time - t0)
+            done = rec.sample_box(sim, 0)
+            if done is not None:
+                done["step"] = sim.step
+                write_cycles(self.results, cycle_columns(rec), self.comm)
+                self.loop.log(f"cycle {done['cycle'] + 1}/{c['cycles']}: settlement start "
+                              f"{1e3 * done['settlement_start']:.3f} mm, peak {1e3 * done['settlement_peak']:.3f} mm, "
+                              f"end {1e3 * done['settlement_end']:.3f} mm; ballast force {done['force_min']:.1f} .. "
+                              f"{done['force_max']:.1f} N")
             if run["output_every"] and sim.step % run["output_every"] == 0:
-                self.prep.append(prep_sample(sim, stage))
+                self.series.append(load_sample(sim, rec.reference))
             self.snapshot(sim)
 
-        if stage == "vibrate":
-            t_end = t0 + c["vibration_time"]
-            return on_step, lambda sim: sim.time >= t_end, 1, t_end
-        t_end = t0 + c["settle_max_time"]
-
-        def settled(sim):
-            return sim.time >= t_end or (sim.time - t0 >= c["settle_min_time"]
-                                         and observables.unbalanced_force(sim) < c["settle_ratio"])
-
-        return on_step, settled, c["check_every"], t_end
-
-    def snapshot(self, sim, stage_end=False):
-        """ParaView snapshot every run.snapshot_every steps and at the end of every stage."""
-        every = self.run_cfg["snapshot_every"]
-        if self.snaps is not None and (sim.step % every == 0) != stage_end:
-            write_snapshot(self.snaps, sim)
-
-    def close_stage(self, stage, sim):
-        c, log = self.c, self.loop.log
-        ratio = observables.unbalanced_force(sim)
-        if stage in ("pour", "refill", "settle") and ratio >= c["settle_ratio"]:
-            log(f"warning: stage {stage} reached settle_max_time = {c['settle_max_time']} s with unbalanced force "
-                f"ratio {ratio:.3g} >= settle_ratio = {c['settle_ratio']}; going on")
-        if stage == "vibrate":
-            sim.set_friction_scale(1.0)
-        top = observables.bed_top(sim)
-        sleeper = sim.boxes.center[0, 2] if sim.boxes is not None else None
-        log(
-            f"stage {stage} done at t = {sim.time:.4f} s, step {sim.step}: unbalanced force ratio {ratio:.3g}, "
-            f"bed top {top:.4f} m"
-            + ("" if sleeper is None else f", sleeper bottom {sleeper - sim.boxes.half[0, 2]:.4f} m")
+        return (
+            on_step,
+            lambda sim: len(rec.records) >= c["cycles"],
+            1,
+            state["load_start"] + c["cycles"] / c["frequency"],
         )
-        self.snapshot(sim, stage_end=True)
-        if stage != "load":
-            self.prep.append(prep_sample(sim, stage))
-        if stage == "settle":  # the first row of the load record: the sleeper where cycling starts
-            self.series.append(load_sample(sim, sim.boxes.center[0], load=c["f_min"]))
 
-    def stage_record(self, stage, sim):
-        return {"sleeper_z": None if sim.boxes is None else float(sim.boxes.center[0, 2])}
+    def after_stage(self, stage, sim):
+        if stage == "settle":  # the first row of the load record: the sleeper where cycling starts
+            self.series.append(load_sample(sim, sim.boxes.center[0], load=self.c["f_min"]))
 
     def finish(self, sim, wall_s):
         finish(self.out, self.results, sim, self.state, self.c, self.path, self.comm.size, wall_s)
-
-
-def plot_preparation(h5_path, png_path):
-    """Bed top, sleeper bottom, kinetic energy and unbalanced force over the preparation."""
-    s, fig, ax = series_figure(h5_path, 3, 1, (8, 8))
-    t = s["time"]
-    ax[0].plot(t, s["bed_top"], label="top of the ballast")
-    ax[0].plot(t, s["sleeper_z"], label="sleeper centre")
-    ax[0].set_ylabel("height [m]")
-    ax[0].legend()
-    plot_energy(ax[1], t, s["kinetic_energy"])
-    ax[2].semilogy(t, np.maximum(s["unbalanced_force"], 1e-6))
-    ax[2].set_ylabel("unbalanced force ratio [-]")
-    ax[2].set_xlabel("time [s]")
-    for k in range(1, len(STAGES)):
-        starts = t[s["stage"] == k]
-        if len(starts):
-            for a in ax:
-                a.axvline(starts[0], color="0.7", lw=0.8)
-            ax[0].text(starts[0], ax[0].get_ylim()[1], STAGES[k], fontsize=8, va="top")
-    save_figure(fig, png_path)
 
 
 def finish(out, results, sim, state, c, path, ranks, wall_s):
@@ -420,7 +284,7 @@ def finish(out, results, sim, state, c, path, ranks, wall_s):
     scene's finishing step calls the analysis entry point `analysis.__main__.main`."""
     from analysis.__main__ import main as analysis_main
 
-    plot_preparation(out / "preparation.h5", out / "preparation.png")
+    plot_preparation(out / "preparation.h5", out / "preparation.png", STAGES)
     status = analysis_main(["box", str(results), "--out", str(out / "analysis")])
     lines = [f"box test: {path}", f"ranks: {ranks}", f"wall time: {wall_s:.1f} s", "",
              "stage     t_end [s]    steps  spheres  unbalanced  bed top [m]  sleeper z [m]  wall [s]"]

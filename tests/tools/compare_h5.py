@@ -1,12 +1,15 @@
 """Compare the datasets of two HDF5 files (or two run directories) bit for bit.
 
-    python tests/tools/compare_h5.py A B [--ignore-attrs]
+    python tests/tools/compare_h5.py A B [--skip NAME ...]
 
 A and B are files, or directories: then every ``*.h5`` under A is compared with the file of the
 same relative path under B (checkpoints excluded: their layout may change between versions).
 Every dataset must exist on both sides with the same shape, dtype and bytes; exit status 0 when
 all agree, 1 otherwise (each difference printed on one line). Used to show that a change of the
 code changed no result (e.g. ``make run``'s results before and after a refactoring).
+``--skip NAME`` leaves out the datasets at or under NAME: e.g. two checkpoints of the same step
+written on different rank counts hold the same ``tables/`` but their ``meta`` records the ranks
+(``compare_h5.py ckpt_a.h5 ckpt_b.h5 --skip meta``).
 """
 import argparse
 import sys
@@ -22,10 +25,13 @@ def datasets(f):
     return out
 
 
-def compare_files(a, b):
-    """List of one-line differences between the datasets of files a and b."""
+def compare_files(a, b, skip=()):
+    """List of one-line differences between the datasets of files a and b (except ``skip``)."""
     with h5py.File(a, "r") as fa, h5py.File(b, "r") as fb:
         da, db = datasets(fa), datasets(fb)
+    for d in (da, db):
+        for k in [k for k in d if any(k == s or k.startswith(s.rstrip("/") + "/") for s in skip)]:
+            del d[k]
     bad = [f"{a}: {k} only on one side" for k in sorted(set(da) ^ set(db))]
     for k in sorted(set(da) & set(db)):
         x, y = np.asarray(da[k]), np.asarray(db[k])
@@ -44,6 +50,7 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("a")
     ap.add_argument("b")
+    ap.add_argument("--skip", nargs="+", default=[], metavar="NAME", help="datasets (or groups) left out")
     args = ap.parse_args(argv)
     a, b = Path(args.a), Path(args.b)
     pairs = [(a, b)] if a.is_file() else [(p, b / p.relative_to(a)) for p in sorted(a.rglob("*.h5"))
@@ -53,7 +60,7 @@ def main(argv=None):
         if not y.exists():
             bad.append(f"{y}: missing")
             continue
-        d, k = compare_files(x, y)
+        d, k = compare_files(x, y, args.skip)
         bad += d
         n += k
     for line in bad:

@@ -20,6 +20,7 @@ from pdem.exactsum import (
     acc_values,
     exact_sum,
     exact_sum_acc,
+    exact_sum_groups_acc,
     exact_sum_rows,
     exact_sum_rows_acc,
 )
@@ -157,6 +158,21 @@ def test_rows():
     # non-contiguous input (a column view)
     assert bits(exact_sum(v[:, 1])) == bits(s[1])
     assert exact_sum_rows(np.zeros((0, 2))).tolist() == [0.0, 0.0]
+
+
+def test_groups():
+    """Per-group column sums (the force on each of many rigid boxes): each the correctly rounded
+    sum of its rows, whatever their order; empty groups sum to +0.0."""
+    rng = np.random.default_rng(15)
+    v = np.column_stack([wide_data(rng, 500), rng.standard_normal(500)])
+    g = rng.integers(0, 4, 500)  # group 4 of 5 stays empty
+    s = acc_values(exact_sum_groups_acc(v, g, 5)).reshape(5, 2)
+    for k in range(5):
+        for j in range(2):
+            assert bits(s[k, j]) == bits(math.fsum(v[g == k, j]) + 0.0)
+    p = rng.permutation(500)
+    np.testing.assert_array_equal(acc_values(exact_sum_groups_acc(v[p], g[p], 5)).reshape(5, 2), s)
+    assert bits(s[4, 0]) == bits(0.0)
 
 
 def test_runs_without_jit():

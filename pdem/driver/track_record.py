@@ -1,0 +1,212 @@
+"""Records of a track section under traffic, in the kind "track" layout of `analysis.schema`.
+
+- `PassageTracker` follows every sleeper through the passages of a load program: settlement
+  (positive down, from the sleeper's centre at the start of traffic [m]), its largest value in
+  the passage (peak) and its value when the passage ends (permanent). A passage ends at the
+  first step at or after its nominal end; its peak instant is the first step at or after the
+  nominal peak (the first axle over the middle sleeper, or mid-cycle). Plain data, JSON state
+  for checkpoints; fed every step with the replicated sleeper positions (identical on every
+  rank), so every rank takes the same decisions.
+- `TrackWriter` writes ``/series`` (`analysis.schema.TRACK_SERIES`) and the per-sleeper rows
+  of ``/track`` (settlement [m], ballast force on the sleeper, positive up [N]) together, one
+  row of each per sample, and ``/passages`` (peak, permanent settlement and the gap under each
+  sleeper, `observables.box_gaps`). After a restart it cuts ``/series`` and ``/track`` to the
+  rows written up to the checkpoint and ``/passages`` to the passages closed by then.
+- `write_force_record` writes ``/forces/<label>``: the normal force of every sleeper–ballast
+  contact (with its sleeper) and the force of every ballast–ballast contact
+  (`observables.contact_force_samples`).
+- `write_sleepers` writes the sleepers for ParaView next to the spheres' snapshots:
+  ``sleepers/sleepers_<step>.vtk`` (legacy VTK, one hexahedron per sleeper, with its index) and
+  the time series ``sleepers.pvd`` (open it in ParaView with snapshots.xmf).
+
+Only rank 0 writes; the others go through the same calls (the collectives inside them).
+"""
+import h5py
+import numpy as np
+from analysis import schema
+
+from . import observables
+from .results import series_writer
+
+EVERY = 10  # samples buffered before /series and /track are written
+
+
+class PassageTracker:
+    """Peak and permanent settlement of every sleeper per passage.
+
+    ``ends[p]``, ``peaks[p]`` [s]: nominal end and peak instant of passage p (0-based);
+    passage 0 starts where tracking starts."""
+
+    def __init__(self, ends, peaks, reference):
+        self.ends = [float(t) for t in ends]
+        self.peaks = [float(t) for t in peaks]
+        self.reference = [float(z) for z in reference]  # sleeper centre heights at the start [m]
+        self.p = 0  # the open passage
+        self.t_start = None
+        self.peak = None
+        self.peak_seen = False
+
+    @property
+    def done(self):
+        return self.p >= len(self.ends)
+
+    def settlement(self, z):
+        """Settlement [m] of every sleeper from its centre heights z [m] (positive down)."""
+        return np.array([r - float(x) for r, x in zip(self.reference, z)])
+
+    def start(self, t, settlement):
+        self.t_start = float(t)
+        self.peak = [float(s) for s in settlement]
+        self.peak_seen = False
+
+    def update(self, t, settlement):
+        """Feed one step; returns the events it completes: "peak" (the peak instant of the open
+        passage is reached) and/or "end" (the passage is over; then ``closed()`` gives its
+        row and the next passage opens at this step)."""
+        events = []
+        if self.done:
+            return events
+        self.peak = [max(a, float(b)) for a, b in zip(self.peak, settlement)]
+        if not self.peak_seen and t >= self.peaks[self.p]:
+            self.peak_seen = True
+            events.append("peak")
+        if t >= self.ends[self.p]:
+            events.append("end")
+        return events
+
+    def close(self, t, settlement):
+        """The row of the open passage ending at t: (t_start, t_end, peak, permanent); opens
+        the next one."""
+        row = (self.t_start, float(t), np.array(self.peak), np.asarray(settlement, float).copy())
+        self.p += 1
+        self.start(t, settlement)
+        return row
+
+    def state(self):
+        return {"ends": self.ends, "peaks": self.peaks, "reference": self.reference, "p": self.p,
+                "t_start": self.t_start, "peak": self.peak, "peak_seen": self.peak_seen}
+
+    @classmethod
+    def restore(cls, state):
+        tr = cls(state["ends"], state["peaks"], state["reference"])
+        tr.p, tr.t_start, tr.peak, tr.peak_seen = int(state["p"]), state["t_start"], state["peak"], state["peak_seen"]
+        return tr
+
+
+def sleeper_sample(sim, tracker):
+    """(/series row, settlement [n], force [n]) of the sleepers now (collective: energy and
+    contacts are reduced over ranks)."""
+    bx = sim.boxes
+    s = tracker.settlement(bx.center[:, 2])
+    force = bx.contact_force[:, 2].copy()
+    e = sim.energy()
+    load = 0.0
+    ballast = 0.0
+    for k in range(len(bx)):
+        load += float(bx.load_force[k] @ bx.direction[k])
+        ballast += float(force[k])
+    row = {"step": sim.step, "time": sim.time, "dt": sim.dt, "applied_load": load, "ballast_force": ballast,
+           "mean_settlement": float(np.sum(s) / len(s)), "kinetic_energy": e["kinetic"] + e["rotational"],
+           "contacts_per_particle": sim.contacts_per_particle()}
+    return row, s, force
+
+
+class TrackWriter:
+    """``/series`` + ``/track`` rows and ``/passages`` of a results file (rank 0 writes).
+
+    ``restart_step`` None starts the groups afresh (removing ``/track``, ``/passages`` and
+    ``/forces`` of an earlier attempt); else the rows after that step and the passages after
+    ``passages_done`` are cut."""
+
+    def __init__(self, path, sleeper_x, comm, restart_step=None, passages_done=0):
+        self.path = path
+        self.active = comm.rank == 0
+        self.series = series_writer(path, schema.TRACK_SERIES, comm, restart_step=restart_step, every=10**9)
+        self.rows_s, self.rows_f = [], []
+        if not self.active:
+            return
+        if restart_step is None:
+            with h5py.File(path, "a") as f:
+                for g in (schema.TRACK, schema.PASSAGES, schema.FORCES):
+                    if g in f:
+                        del f[g]
+            schema.write_track(path, sleeper_x)
+        else:
+            cut_track(path, self.series.rows, passages_done)
+
+    def append(self, row, settlement, force):
+        self.series.append(row)
+        if self.active:
+            self.rows_s.append(np.asarray(settlement, float))
+            self.rows_f.append(np.asarray(force, float))
+            if len(self.rows_s) >= EVERY:
+                self.flush()
+
+    def flush(self):
+        """Write the buffered rows of /series and /track (they stay the same length)."""
+        self.series.flush()
+        if self.active and self.rows_s:
+            schema.append_track_rows(self.path, np.array(self.rows_s), np.array(self.rows_f))
+            self.rows_s, self.rows_f = [], []
+
+    def passage(self, t_start, t_end, peak, permanent, gap):
+        if self.active:
+            self.flush()
+            schema.append_passages(self.path, t_start, t_end, peak, permanent, gap)
+
+    def close(self):
+        self.flush()
+        self.series.close()
+
+
+def cut_track(path, n_rows, n_passages):
+    """Cut ``/track`` rows to ``n_rows`` (the rows of /series kept) and ``/passages`` to
+    ``n_passages`` (a run resumed from a checkpoint)."""
+    with h5py.File(path, "a") as f:
+        if schema.TRACK in f:
+            for name in ("settlement", "force"):
+                ds = f[schema.TRACK][name]
+                ds.resize(min(ds.shape[0], n_rows), axis=0)
+        if schema.PASSAGES in f:
+            g = f[schema.PASSAGES]
+            for name in g:
+                ds = g[name]
+                ds.resize(min(ds.shape[0], n_passages), axis=0)
+
+
+def write_force_record(path, label, sim):
+    """``/forces/<label>`` of the contacts now (collective; rank 0 writes, replacing a record of
+    the same label written before a restart)."""
+    forces = observables.contact_force_samples(sim)
+    if sim.comm.rank == 0:
+        schema.write_forces(path, label, step=sim.step, time=sim.time, replace=True, **forces)
+
+
+def write_sleepers(out, step, time, centres, halves):
+    """``out/sleepers/sleepers_<step>.vtk`` (the boxes as hexahedra) and ``out/sleepers.pvd``
+    listing every such file with its time (rank 0; a file of the same step is replaced)."""
+    import json
+    from pathlib import Path
+
+    d = Path(out) / "sleepers"
+    d.mkdir(exist_ok=True)
+    corners = np.array([[-1, -1, -1], [1, -1, -1], [1, 1, -1], [-1, 1, -1],
+                        [-1, -1, 1], [1, -1, 1], [1, 1, 1], [-1, 1, 1]], float)
+    n = len(centres)
+    halves = np.broadcast_to(np.asarray(halves, float), (n, 3))
+    pts = (np.asarray(centres)[:, None, :] + corners[None] * halves[:, None, :]).reshape(-1, 3)
+    lines = ["# vtk DataFile Version 3.0", f"pdem sleepers step {int(step)} time {float(time)!r}", "ASCII",
+             "DATASET UNSTRUCTURED_GRID", f"POINTS {8 * n} double"]
+    lines += [" ".join(repr(float(v)) for v in p) for p in pts]
+    lines += [f"CELLS {n} {9 * n}"] + [" ".join(["8"] + [str(8 * k + i) for i in range(8)]) for k in range(n)]
+    lines += [f"CELL_TYPES {n}"] + ["12"] * n
+    lines += [f"CELL_DATA {n}", "SCALARS sleeper int 1", "LOOKUP_TABLE default"] + [str(k) for k in range(n)]
+    name = f"sleepers_{int(step):012d}.vtk"
+    (d / name).write_text("\n".join(lines) + "\n")
+    index_path = d / "index.json"
+    index = json.loads(index_path.read_text()) if index_path.exists() else {}
+    index[name] = float(time)
+    index_path.write_text(json.dumps(index, sort_keys=True))
+    rows = "".join(f'    <DataSet timestep="{t!r}" file="sleepers/{f}"/>\n' for f, t in sorted(index.items()))
+    (Path(out) / "sleepers.pvd").write_text('<?xml version="1.0"?>\n<VTKFile type="Collection" version="0.1">\n'
+                                            f"  <Collection>\n{rows}  </Collection>\n</VTKFile>\n")

@@ -1,0 +1,677 @@
+"""The track section (SPEC.md 2.4, thesis ch. 6 and the multi-sleeper track it left for future
+work): a ballast bed with shoulders and cribs under rigid sleepers, prepared once, then loaded
+by a wheel-load cycle (the thesis's slice) or by trains of axles passing at a speed, on any
+number of ranks (slabs cut across the track axis x).
+
+Coordinates: x along the track (the slab axis), y across it (y = 0 the track's centre line),
+z up (z = 0 the top of the subgrade). A scene file with a ``[track]`` table (keys, defaults
+and units in `DEFAULTS`, `TRAFFIC_DEFAULTS`; SI) describes:
+
+- ``sleepers`` rigid concrete sleepers (`pdem.boxes`: one body each, of mass ``sleeper_mass``
+  [kg] (default ρV of the sleeper material) plus the rail over one ``spacing``,
+  ``rail_mass`` [kg/m] per rail) of ``sleeper_size`` = [width along x, length across y,
+  height] [m], at x_k = (k + ½)·spacing, their base at z = ``bed_depth``; translations not in
+  ``sleeper_blocked`` free (default: z only; a half model: x and z, as the thesis's slice);
+  boxes never rotate (`pdem.boxes`), which blocks the sleeper's rotations: a limitation.
+- the bed: from the subgrade (wall z = 0, ``base_material``, soft: stands for the layers
+  below) to the sleeper top z_top = bed_depth + sleeper height, over the whole track length
+  L = sleepers·spacing between end walls x = 0 and x = L; the shoulders reach
+  ``shoulder_width`` [m] beyond the sleeper ends at z_top and fall at 1:``slope`` to the toe;
+  the slopes are retaining facets (two triangles per side, with a short vertical lip at the
+  top), as in the thesis (its mould was 4 planes and 4 facets). ``half = true`` models the half
+  on y >= 0 by symmetry (a wall at y = 0, sleeper y-translation blocked): the thesis's slice
+  is ``half = true, sleepers = 1`` (600 mm of track, half-sleeper 1300 x 300 x 220 mm).
+- The rail is not a body: a rigid sleeper that cannot rotate carries the rail-seat load
+  wherever it acts, so the rail adds only its mass.
+
+Stages: the preparation pipeline shared with the box test (`pdem.driver.preparation`), in
+the thesis's order for the track (compact the bed, then cut it and place the sleeper on it):
+
+1. ``pour``     a loose cloud fills the box x in [0, L], |y| <= y_toe (the toe of the slope)
+                up to z_top (times the overfill); settle.
+2. ``vibrate``  shake the box with friction lowered; restore.
+3. ``settle``   settle.
+4. ``refill``   cut the compacted bed to its shape: remove the spheres that stick out above
+                z_top, beyond the slopes, or into a sleeper; place the sleepers in their slots
+                (base at z = bed_depth) and the slope facets; settle. The end-of-stage
+                checkpoint is copied to ``prepared.h5``: the prepared bed, which any number of
+                load programs start from ([traffic] prepared = that file or its run directory)
+                without preparing again.
+5. ``traffic``  (only with a ``[traffic]`` table) ``program = "axles"``: `pdem.loads.AxleTrain`
+                (``passages`` trains of axles at positions ``axles`` [m] behind the first,
+                ``axle_load`` [N], ``speed`` [m/s]; each sleeper carries the time-shifted
+                rail-seat share of every wheel, `pdem.loads.rail_seat_share`, characteristic
+                length L = (4 EI a / k_d)^(1/4) from ``rail_bending_stiffness`` EI [N m²] and
+                ``rail_seat_stiffness`` k_d [N/m] or given as ``characteristic_length`` [m]);
+                ``program = "haversine"``: ``cycles`` cycles ``f_min`` <-> ``f_max`` [N per rail
+                seat] at ``frequency`` [Hz] on every sleeper, one passage per cycle (the
+                thesis's 0 -> F -> 0).
+
+Results (`analysis.schema`, kind "track"): ``results.h5`` with /series (`TRACK_SERIES`), /track
+(settlement and ballast force of every sleeper per sample), /passages (peak and permanent
+settlement, gap under each sleeper), /forces/peak_passage_<p> and end_passage_<p> (contact force
+distributions, passages 1, every ``forces_every``-th and the last); ``preparation.h5`` and
+``.png``; ``analysis/`` (`python -m analysis track`); ``summary.txt`` (stages, passages, wall
+time, throughput, load balance over the ranks, timing table) and ``scaling.json`` (the same,
+for `bench.scaling_model`); ParaView snapshots on schedule, at stage ends and at every
+recorded force distribution.
+"""
+import json
+import os
+import shutil
+import tomllib
+from pathlib import Path
+
+import numpy as np
+
+from ..config import check_keys, run_settings, scene_from_dict
+from ..driver import observables
+from ..driver.preparation import PREPARATION_DEFAULTS, PreparedRun, add_cloud, check_preparation, plot_preparation, \
+    remove_where
+from ..driver.results import write_root_attrs
+from ..driver.stages import empty_tables
+from ..driver.track_record import PassageTracker, TrackWriter, sleeper_sample, write_force_record, write_sleepers
+from ..errors import InputError
+from ..io.checkpoint import CheckpointError, read_checkpoint
+from ..loads import ETA_ZERO, AxleTrain, Haversine
+from ..validate import boolean, number
+
+PREPARATION = ("pour", "vibrate", "settle", "refill")  # the pipeline's stages: compacted before the cut
+STAGES = PREPARATION + ("traffic",)
+TOP_TABLES = {"simulation", "run", "materials", "track", "traffic"}
+# [track] keys and defaults (SPEC.md 2.4, thesis ch. 6 and table 6.1; stiffness is in [materials])
+DEFAULTS = {
+    "half": False,                      # model y >= 0 only (symmetry about the track's centre line)
+    "sleepers": 6,                      # number of sleepers [-]
+    "spacing": 0.6,                     # sleeper spacing [m] (thesis: 600 mm "u", 674.5 mm "c")
+    "sleeper_size": [0.3, 2.6, 0.2],    # width (x), length (y), height (z) [m]: B91
+    "rail_mass": 60.21,                 # [kg/m] per rail (UIC 60 / 60E1)
+    "gauge": 1.435,                     # [m]
+    "rail_head_width": 0.072,           # [m] (60E1): rail seats at y = ±(gauge + head)/2
+    "rail_foot_width": 0.15,            # [m] (60E1): the seat must lie on the sleeper
+    "bed_depth": 0.35,                  # ballast under the sleeper base [m] (thesis 6.1)
+    "shoulder_width": 0.4,              # ballast beyond the sleeper end at the top [m]
+    "slope": 1.5,                       # shoulder slope 1:slope (horizontal per vertical) [-]
+    "ballast_material": "ballast", "wall_material": "steel", "base_material": "rubber",
+    "sleeper_material": "concrete",
+    **PREPARATION_DEFAULTS,
+}
+OPTIONAL = {"sleeper_mass", "sleeper_blocked"}
+TRAFFIC_DEFAULTS = {
+    "program": "axles", "prepared": "", "forces_every": 0,
+    # program "axles"
+    "axle_load": 225e3,                 # [N] (22.5 t, UIC line category D)
+    "axles": [0.0, 2.5],                # axle positions behind the first [m]: one bogie
+    "speed": 27.78,                     # [m/s] (100 km/h)
+    "passages": 1, "rest_time": 0.2,    # [-], unloaded time after each passage [s]
+    "rail_bending_stiffness": 6.38e6,   # EI of one rail [N m^2] (60E1: E 210 GPa, I 3038 cm^4)
+    "rail_seat_stiffness": 6.0e7,       # support stiffness per rail seat k_d [N/m]
+    # program "haversine" (thesis ch. 6: 0 -> F -> 0; table 6.1: F = 200 kN)
+    "f_min": 0.0, "f_max": 200e3, "frequency": 1.0, "cycles": 1,
+}
+TRAFFIC_OPTIONAL = {"x_from", "x_to", "characteristic_length"}
+AXLE_KEYS = {"axle_load", "axles", "speed", "passages", "rest_time", "rail_bending_stiffness", "rail_seat_stiffness",
+             "x_from", "x_to", "characteristic_length"}
+HAVERSINE_KEYS = {"f_min", "f_max", "frequency", "cycles"}
+WHERE = ("track", "in the track bed")
+PREPARED = "prepared.h5"
+
+
+# ---------------------------------------------------------------------------- settings
+def track_settings(doc):
+    """The [track] table with defaults, checked (one-line InputError naming the key)."""
+    given = doc["track"]
+    check_keys("track", given, set(DEFAULTS) | OPTIONAL)
+    for k in doc:
+        if k not in TOP_TABLES:
+            raise InputError(f"scene file.{k}: unknown table for a track scene; allowed: "
+                             f"{', '.join(sorted(TOP_TABLES))}")
+    c = {**DEFAULTS, **given}
+    c["half"] = boolean("track.half", c["half"])
+    v = c["sleeper_size"]
+    if not (isinstance(v, list) and len(v) == 3):
+        raise InputError(f"track.sleeper_size = {v!r}: must be [width x, length y, height z] > 0 [m]")
+    c["sleeper_size"] = [number("track.sleeper_size", x, 0.0, lo_open=True, allow="[x, y, z] lengths > 0 [m]")
+                         for x in v]
+    for k in ("ballast_material", "wall_material", "base_material", "sleeper_material"):
+        if not isinstance(c[k], str) or c[k] not in doc.get("materials", {}):
+            raise InputError(f"track.{k} = {c[k]!r}: no [materials.{c[k]}] table in the scene file")
+    check_preparation("track", c)
+    c["sleepers"] = number("track.sleepers", c["sleepers"], 1, integer=True)
+    for k in ("spacing", "gauge", "rail_head_width", "rail_foot_width", "bed_depth", "slope"):
+        c[k] = number(f"track.{k}", c[k], 0.0, lo_open=True)
+    for k in ("rail_mass", "shoulder_width"):
+        c[k] = number(f"track.{k}", c[k], 0.0)
+    w, length, h = c["sleeper_size"]
+    if w >= c["spacing"]:
+        raise InputError(f"track.sleeper_size = {c['sleeper_size']!r}: the sleeper width {w} m must be less than the "
+                         f"spacing {c['spacing']} m")
+    seat = (c["gauge"] + c["rail_head_width"]) / 2
+    if seat + c["rail_foot_width"] / 2 > length / 2:
+        raise InputError(f"track.sleeper_size = {c['sleeper_size']!r}: the rail seats at y = ±{seat:g} m (gauge "
+                         f"{c['gauge']:g} m) lie beyond the sleeper ends at ±{length / 2:g} m: the wheel loads would "
+                         "reach no sleeper")
+    r_max = c["radius"] * (1 + c["radius_spread"])
+    if c["bed_depth"] < 2 * r_max:
+        raise InputError(f"track.bed_depth = {c['bed_depth']!r}: must hold at least one grain (>= {2 * r_max:g} m)")
+    density = doc["materials"][c["sleeper_material"]]["density"]
+    share = 0.5 if c["half"] else 1.0
+    if "sleeper_mass" in given:
+        c["sleeper_mass"] = number("track.sleeper_mass", c["sleeper_mass"], 0.0, lo_open=True, allow="a mass > 0 [kg]")
+    else:
+        c["sleeper_mass"] = float(density) * w * length * h
+    c["body_mass"] = share * c["sleeper_mass"] + (1 if c["half"] else 2) * c["rail_mass"] * c["spacing"]
+    blocked = c.get("sleeper_blocked", "yXYZ" if c["half"] else "xyXYZ")
+    if not isinstance(blocked, str) or set(blocked) - set("xyzXYZ") or not set("XYZ") <= set(blocked):
+        raise InputError(f"track.sleeper_blocked = {blocked!r}: must be letters from 'xyzXYZ' including X, Y and Z "
+                         "(sleepers do not rotate)")
+    if c["half"] and "y" not in blocked:
+        raise InputError(f"track.sleeper_blocked = {blocked!r}: a half model needs 'y' (no translation across the "
+                         "symmetry plane)")
+    c["sleeper_blocked"] = blocked
+    if "steps" in doc.get("run", {}):
+        raise InputError("run.steps: not used by a track scene (its stages end on their own criteria; "
+                         "`pdem run --steps N` stops one early); remove it")
+    return c
+
+
+def traffic_settings(doc, c):
+    """The [traffic] table with defaults, checked; None if the file has none (prepare only)."""
+    if "traffic" not in doc:
+        return None
+    given = doc["traffic"]
+    check_keys("traffic", given, set(TRAFFIC_DEFAULTS) | TRAFFIC_OPTIONAL)
+    t = {**TRAFFIC_DEFAULTS, **given}
+    if t["program"] not in ("axles", "haversine"):
+        raise InputError(f"traffic.program = {t['program']!r}: must be 'axles' or 'haversine'")
+    other = HAVERSINE_KEYS if t["program"] == "axles" else AXLE_KEYS
+    for k in sorted(other & set(given)):
+        raise InputError(f"traffic.{k}: not used by program = {t['program']!r}; remove it")
+    if not isinstance(t["prepared"], str):
+        raise InputError(f"traffic.prepared = {t['prepared']!r}: must be the path of a prepared bed (a run "
+                         f"directory or its {PREPARED})")
+    t["forces_every"] = number("traffic.forces_every", t["forces_every"], 0, integer=True)
+    x = sleeper_x(c)
+    if t["program"] == "haversine":
+        t["passages"] = number("traffic.cycles", t["cycles"], 1, integer=True)
+        Haversine(t["f_min"], t["f_max"], t["frequency"], t["cycles"], label="traffic")  # checks the values
+        return t
+    for k in ("rail_bending_stiffness", "rail_seat_stiffness"):
+        t[k] = number(f"traffic.{k}", t[k], 0.0, lo_open=True)
+    if "characteristic_length" not in given:
+        ei, kd = t["rail_bending_stiffness"], t["rail_seat_stiffness"]
+        t["characteristic_length"] = (4.0 * ei * c["spacing"] / kd) ** 0.25
+    length = number("traffic.characteristic_length", t["characteristic_length"], 0.0, lo_open=True)
+    reach = ETA_ZERO * length
+    t.setdefault("x_from", float(x[0] - reach))
+    t.setdefault("x_to", float(x[-1] + reach))
+    train = make_train(t, c, 0.0)
+    if t["x_to"] <= x[0] - reach or t["x_from"] >= x[-1] + reach:
+        raise InputError(f"traffic.x_from = {train.x_from!r}, x_to = {train.x_to!r}: the axles never come within "
+                         f"reach ({reach:.3g} m = 3π/4 L) of a sleeper (x = {x[0]:g} .. {x[-1]:g} m): no axle load "
+                         "reaches any sleeper")
+    return t
+
+
+def make_train(t, c, start):
+    return AxleTrain(t["axle_load"], t["axles"], t["speed"], t["passages"], spacing=c["spacing"],
+                     length=t["characteristic_length"], x_from=t["x_from"], x_to=t["x_to"], rest_time=t["rest_time"],
+                     start=start, label="traffic")
+
+
+def check_ranks(c, doc, size):
+    """A track shorter than ``size`` slabs of one halo each: one-line InputError."""
+    r_max = c["radius"] * (1 + c["radius_spread"])
+    skin = doc.get("simulation", {}).get("skin", 0.25 * c["radius"])
+    halo = 2 * r_max + float(skin)
+    length = c["sleepers"] * c["spacing"]
+    if size > 1 and length - 2 * r_max < size * halo:
+        most = max(int((length - 2 * r_max) // halo), 1)
+        raise InputError(f"track.sleepers = {c['sleepers']}: a track of {length:g} m is shorter than {size} slabs "
+                         f"allow (each at least one halo, 2 r_max + skin = {halo:.4g} m, thick): use at most "
+                         f"{most} rank(s) or a longer track")
+
+
+# ---------------------------------------------------------------------------- geometry
+def sleeper_x(c):
+    """x of every sleeper's centre [m]."""
+    return (np.arange(c["sleepers"]) + 0.5) * c["spacing"]
+
+
+def profile(c):
+    """The bed's cross-section: z_top (sleeper top = shoulder top), y_top (shoulder edge),
+    y_toe (foot of the slope), y_lo (lowest y of the model: 0 or -y_toe) [m]."""
+    w, length, h = c["sleeper_size"]
+    z_top = c["bed_depth"] + h
+    y_top = length / 2 + c["shoulder_width"]
+    y_toe = y_top + c["slope"] * z_top
+    return {"z_top": z_top, "y_top": y_top, "y_toe": y_toe, "y_lo": 0.0 if c["half"] else -y_toe,
+            "length": c["sleepers"] * c["spacing"]}
+
+
+def sleeper_boxes(c):
+    """(centres [n, 3], half extents [3]) of the sleepers resting at z = bed_depth."""
+    w, length, h = c["sleeper_size"]
+    yc, hy = (length / 4, length / 4) if c["half"] else (0.0, length / 2)
+    x = sleeper_x(c)
+    centres = np.stack([x, np.full(len(x), yc), np.full(len(x), c["bed_depth"] + h / 2)], axis=1)
+    return centres, np.array([w / 2, hy, h / 2])
+
+
+def outside_bed(c, pos, r):
+    """True for the spheres not wholly inside the bed's cross-section: above z_top or beyond a
+    slope (signed distance to the slope plane > -r)."""
+    g = profile(c)
+    z_top, y_top = g["z_top"], g["y_top"]
+    dy = g["y_toe"] - y_top
+    norm = np.hypot(z_top, dy)
+    y = np.abs(pos[:, 1])
+    s = ((y - y_top) * z_top + (pos[:, 2] - z_top) * dy) / norm
+    return (pos[:, 2] + r > z_top) | (s > -r)
+
+
+def in_sleepers(c, pos, r):
+    """True for the spheres that overlap a sleeper (distance to its box < r)."""
+    centres, half = sleeper_boxes(c)
+    hit = np.zeros(len(pos), bool)
+    for ctr in centres:
+        e = np.maximum(np.abs(pos - ctr) - half, 0.0)
+        hit |= np.einsum("ij,ij->i", e, e) < r * r
+    return hit
+
+
+def slope_facets(c):
+    """Triangles (3 vertices each) of the slopes and their vertical lips, on each modelled side."""
+    g = profile(c)
+    L, z_top, y_top, y_toe = g["length"], g["z_top"], g["y_top"], g["y_toe"]
+    lip = z_top + 4 * c["radius"] * (1 + c["radius_spread"])
+    out = []
+    for s in ((1.0,) if c["half"] else (1.0, -1.0)):
+        quads = [((0, s * y_toe, 0), (L, s * y_toe, 0), (L, s * y_top, z_top), (0, s * y_top, z_top)),
+                 ((0, s * y_top, z_top), (L, s * y_top, z_top), (L, s * y_top, lip), (0, s * y_top, lip))]
+        for a, b, cc, d in quads:
+            out += [(a, b, cc), (a, cc, d)]
+    return out
+
+
+# ---------------------------------------------------------------------------- stage scenes
+def stage_scene(doc, c, stage, tables, loads=None, centres=None):
+    """The `Scene` of ``stage`` holding the spheres of ``tables``: the file's materials and
+    settings, the subgrade, end and side walls, from ``refill`` on the slope facets and the
+    sleepers (at ``centres`` if given; loaded by ``loads`` in ``traffic``)."""
+    base = {k: v for k, v in doc.items() if k in ("simulation", "materials")}
+    base["simulation"] = {"slab_axis": "x", **base.get("simulation", {}), "allow_initial_overlap": True}
+    scene = scene_from_dict(base)
+    g = profile(c)
+    wm = c["wall_material"]
+    scene.add_wall("z", 0.0, c["base_material"], sense=1, name="subgrade")
+    scene.add_wall("x", 0.0, wm, sense=1, name="x_min")
+    scene.add_wall("x", g["length"], wm, sense=-1, name="x_max")
+    scene.add_wall("y", g["y_lo"], wm, sense=1, name="symmetry" if c["half"] else "y_min")
+    scene.add_wall("y", g["y_toe"], wm, sense=-1, name="y_max")
+    if STAGES.index(stage) >= STAGES.index("refill"):
+        for k, tri in enumerate(slope_facets(c)):
+            scene.add_facet(tri, wm, name=f"slope_{k}")
+        start, half = sleeper_boxes(c)
+        at = start if centres is None else np.asarray(centres, float)
+        for k in range(c["sleepers"]):
+            scene.add_box(at[k], half, c["sleeper_material"], c["body_mass"], blocked=c["sleeper_blocked"],
+                          load=None if loads is None else loads[k], damping=scene.settings["damping"],
+                          name=f"sleeper_{k}")
+    scene.add_sphere_columns(tables["particles"])
+    return scene
+
+
+def traffic_loads(c, t, start):
+    """The load program of every sleeper for traffic ``t`` starting at ``start`` [s], and the
+    passages' nominal (ends, peak instants) [s]."""
+    wheels = 1 if c["half"] else 2
+    x = sleeper_x(c)
+    if t["program"] == "haversine":
+        prog = Haversine(wheels * t["f_min"], wheels * t["f_max"], t["frequency"], t["cycles"], start=start,
+                         label="traffic")
+        n = t["cycles"]
+        ends = [start + (p + 1) / t["frequency"] for p in range(n)]
+        peaks = [start + (p + 0.5) / t["frequency"] for p in range(n)]
+        return [prog] * len(x), ends, peaks
+    train = make_train(t, c, start)
+    mid = 0.5 * (x[0] + x[-1])
+    ends = [train.passage_times(p)[1] for p in range(train.passages)]
+    peaks = [train.time_over(p, mid) for p in range(train.passages)]
+    return [train.sleeper_load(xk, wheels) for xk in x], ends, peaks
+
+
+# ---------------------------------------------------------------------------- the run
+def check(doc):
+    """Check a parsed track scene file without running it (one-line InputError)."""
+    c = track_settings(doc)
+    t = traffic_settings(doc, c)
+    run_settings(doc)
+    loads = traffic_loads(c, t, 0.0)[0] if t is not None else None
+    stage_scene(doc, c, "traffic", empty_tables(), loads)
+
+
+def run(path, doc, out_dir, comm, steps=None, fresh=False):
+    """Run (or resume) the track section of a parsed scene file; returns the exit status."""
+    c = track_settings(doc)
+    check_ranks(c, doc, comm.size)
+    tr = TrackRun(path, doc, out_dir, comm, fresh)
+    if steps is not None:
+        tr.stop_step = number("--steps", steps, 0, integer=True)
+    return tr.run()
+
+
+def same_preparation(prep_doc, doc):
+    """None if the two scene files prepare the same bed, else 'table.key = a there, b here'."""
+    for table in ("simulation", "materials", "track"):
+        a, b = prep_doc.get(table, {}), doc.get(table, {})
+        for k in sorted(set(a) | set(b)):
+            if a.get(k) != b.get(k):
+                there, here = (repr(d[k]) if k in d else "(absent)" for d in (a, b))
+                return f"{table}.{k} = {there} there, {here} here"
+    return None
+
+
+class TrackRun(PreparedRun):
+    """One track section on this process's ranks: the shared preparation pipeline, the traffic
+    stage and its records. ``state`` adds the traffic start, the passage tracker and where a
+    prepared bed came from."""
+
+    NAME = "track"
+    STAGES = STAGES
+
+    def __init__(self, path, doc, out_dir, comm, fresh):
+        self.c = track_settings(doc)
+        self.t = traffic_settings(doc, self.c)
+        if self.t is None:
+            self.STAGES = PREPARATION
+        self.tracker, self.writer, self.loads_report = None, None, None
+        self.snapped = None  # the step of the last snapshot written with a force record
+        super().__init__(path, doc, out_dir, comm, fresh)
+        self.step0 = int(self.meta["step"]) if self.meta else 0  # where this invocation starts
+        self.rebuilds0 = int(self.meta.get("n_rebuilds", 0)) if self.meta else 0
+
+    def initial_state(self):
+        return {"traffic_start": None, "tracker": None, "prepared_from": None, "forces": []}
+
+    def checkpoint_state(self):
+        return {**self.state, "tracker": self.tracker.state() if self.tracker else None}
+
+    def start_point(self):
+        """The prepared bed of [traffic] prepared, if given."""
+        if self.t is None or not self.t["prepared"]:
+            return None
+        path = Path(self.t["prepared"])
+        if path.is_dir():
+            path = path / PREPARED
+        if not path.is_file():
+            raise InputError(f"traffic.prepared = {self.t['prepared']!r}: no prepared bed there (a run directory with "
+                             f"{PREPARED}, or the file)")
+        try:
+            tables, meta = read_checkpoint(path)
+        except CheckpointError as exc:
+            raise InputError(f"traffic.prepared = {self.t['prepared']!r}: {exc}") from None
+        state = meta.get(self.NAME)
+        if not state or state.get("stage") != STAGES.index("traffic") or state.get("started"):
+            raise InputError(f"traffic.prepared = {self.t['prepared']!r}: not a prepared bed of a track scene (the "
+                             "checkpoint at the end of its preparation)")
+        diff = same_preparation(tomllib.loads(meta["scene_file"]), self.doc)
+        if diff is not None:
+            raise InputError(f"traffic.prepared = {self.t['prepared']!r}: prepared from another scene ({diff})")
+        state = {**state, "prepared_from": str(path), "traffic_start": None, "tracker": None, "forces": []}
+        self.loop.log(f"starting from the prepared bed {path} (step {meta['step']}, t = {meta['time']:.6e} s, "
+                      f"{len(tables['particles']['gid'])} spheres)")
+        return tables, meta, state
+
+    # ------------------------------------------------------------------ outputs
+    def open_outputs(self):
+        if self.state["prepared_from"] is None:
+            super().open_outputs()
+        else:  # no preparation here: its record is in the prepared run's directory
+            self.prep = None
+            self.open_results()
+
+    def open_results(self):
+        self.results = self.out / "results.h5"
+
+    def close_outputs(self):
+        if self.prep is not None:
+            self.prep.close()
+        if self.writer is not None:
+            self.writer.close()
+
+    # ------------------------------------------------------------------ preparation of the bed
+    def pour(self, tables):
+        c = self.c
+        g = profile(c)
+        tables = add_cloud(empty_tables(), self.doc, c, (0.0, g["y_lo"]), (g["length"], g["y_toe"]), 0.0,
+                           g["length"] * (g["y_toe"] - g["y_lo"]) * g["z_top"], c["seed"], 0, WHERE)
+        return tables, f"poured {len(tables['particles']['gid'])} spheres"
+
+    def refill(self, tables):
+        c = self.c
+        tables, cut = remove_where(tables, lambda pos, r: outside_bed(c, pos, r))
+        tables, slots = remove_where(tables, lambda pos, r: in_sleepers(c, pos, r))
+        return tables, (f"cut the bed to its shape ({cut} spheres above z_top = {profile(c)['z_top']:g} m or beyond "
+                        f"the slopes), cleared {c['sleepers']} sleeper slot(s) ({slots} spheres), placed the sleepers "
+                        "and the slope facets")
+
+    def stage_scene(self, stage, tables):
+        centres = tables["boxes"]["center"] if "boxes" in tables else None
+        loads = None
+        if stage == "traffic":
+            loads = traffic_loads(self.c, self.t, self.state["traffic_start"])[0]
+        return stage_scene(self.doc, self.c, stage, tables, loads, centres)
+
+    def bodies_settled(self, sim):
+        """The sleepers at rest: on every one, |net force| / weight and |velocity| / sqrt(g r)
+        below settle_ratio (a sleeper dropped into its slot bounces on the bed at ~10 Hz, which
+        the spheres' ratio does not see)."""
+        v_ref = (float(np.linalg.norm(sim.gravity)) * self.c["radius"]) ** 0.5
+        f, v = observables.box_rest(sim, v_ref)
+        return f < self.c["settle_ratio"] and v < self.c["settle_ratio"]
+
+    def bodies_note(self, sim):
+        if sim.boxes is None:
+            return ""
+        base = sim.boxes.center[:, 2] - sim.boxes.half[:, 2]
+        f, v = observables.box_rest(sim, (float(np.linalg.norm(sim.gravity)) * self.c["radius"]) ** 0.5)
+        return (f", sleeper bases {base.min():.4f} .. {base.max():.4f} m (net force/weight {f:.2g}, "
+                f"speed/sqrt(gr) {v:.2g})")
+
+    def end_stage(self, stage, sim, wall0, **record):
+        written = super().end_stage(stage, sim, wall0, **record)
+        if stage == PREPARATION[-1] and self.comm.rank == 0:  # the prepared bed: a copy of this checkpoint
+            tmp = self.out / (PREPARED + ".tmp")
+            shutil.copyfile(written, tmp)
+            os.replace(tmp, self.out / PREPARED)
+            self.loop.log(f"prepared bed: {self.out / PREPARED} (start load programs from it with "
+                          f"[traffic] prepared = \"{self.out}\")")
+        self.comm.barrier()
+        return written
+
+    # ------------------------------------------------------------------ traffic
+    def open_load_stage(self, stage, tables):
+        self.state["traffic_start"] = float(self.meta["time"]) if self.meta else 0.0
+        return tables, f"traffic: {self.traffic_text()}"
+
+    def traffic_text(self):
+        t = self.t
+        if t["program"] == "haversine":
+            return (f"{t['cycles']} cycle(s) {t['f_min']:g} <-> {t['f_max']:g} N per rail seat at "
+                    f"{t['frequency']:g} Hz on every sleeper")
+        return (f"{t['passages']} passage(s) of {len(t['axles'])} axle(s) of {t['axle_load']:g} N at "
+                f"{t['speed']:g} m/s, axles at {t['axles']} m, from x = {t['x_from']:.3f} to {t['x_to']:.3f} m, "
+                f"rest {t['rest_time']:g} s; rail-seat shares with L = {t['characteristic_length']:.4f} m")
+
+    def load_program(self, stage, sim, scene):
+        state, run = self.state, self.run_cfg
+        t0 = state["traffic_start"]
+        _, ends, peaks = traffic_loads(self.c, self.t, t0)
+        resumed = state["tracker"] is not None
+        if resumed:
+            tr = PassageTracker.restore(state["tracker"])
+        else:
+            tr = PassageTracker(ends, peaks, sim.boxes.center[:, 2])
+            tr.start(sim.time, tr.settlement(sim.boxes.center[:, 2]))
+        self.tracker = tr
+        self.writer = w = TrackWriter(self.results, sleeper_x(self.c), self.comm,
+                                      restart_step=self.restart_step if resumed else None, passages_done=tr.p)
+        self.loop.flush.append(w)
+        if self.comm.rank == 0 and not resumed:
+            write_root_attrs(self.results, {k: self.doc[k] for k in ("simulation", "materials", "track", "traffic")},
+                             "track")
+        first = None if resumed else sim.step + 1  # the first row: after the first step (forces computed)
+        n = len(ends)
+        every = self.t["forces_every"]
+
+        def recorded(p):  # passages (1-based) with force distributions
+            return p == 1 or p == n or (every > 0 and p % every == 0)
+
+        def on_step(sim):
+            s = tr.settlement(sim.boxes.center[:, 2])
+            events = tr.update(sim.time, s)
+            p = tr.p + 1
+            if "peak" in events and recorded(p):
+                self.force_record(f"peak_passage_{p}", sim)
+            if "end" in events:
+                gap = observables.box_gaps(sim)
+                row = tr.close(sim.time, s)
+                w.append(*sleeper_sample(sim, tr))
+                w.passage(row[0], row[1], row[2], row[3], gap)
+                if recorded(p):
+                    self.force_record(f"end_passage_{p}", sim)
+                self.loop.log(f"passage {p}/{n} done at t = {sim.time:.4f} s: settlement peak "
+                              f"{1e3 * row[2].mean():.3f} (max {1e3 * row[2].max():.3f}) mm, permanent "
+                              f"{1e3 * row[3].mean():.3f} ({1e3 * row[3].min():.3f} .. {1e3 * row[3].max():.3f}) mm, "
+                              f"gap max {1e3 * gap.max():.3f} mm")
+            elif sim.step == first or (run["output_every"] and sim.step % run["output_every"] == 0):
+                w.append(*sleeper_sample(sim, tr))
+            self.snapshot(sim)
+
+        return on_step, lambda sim: tr.done, 1, ends[-1]
+
+    def force_record(self, label, sim):
+        write_force_record(self.results, label, sim)
+        if self.snaps is not None and self.snapped != sim.step:
+            self.write_snapshot(sim)
+            self.snapped = sim.step
+        self.state["forces"].append(label)
+
+    def snapshot(self, sim, stage_end=False):
+        if self.snapped != sim.step:  # not twice at one step (a force record and the schedule)
+            super().snapshot(sim, stage_end)
+
+    def after_snapshot(self, sim):
+        """The sleepers for ParaView, next to the spheres' snapshots: sleepers.pvd."""
+        if self.comm.rank == 0 and sim.boxes is not None:
+            write_sleepers(self.out, sim.step, sim.time, sim.boxes.center, sim.boxes.half)
+
+    def stage_record(self, stage, sim):
+        return {**super().stage_record(stage, sim), "balance": observables.rank_loads(sim)["imbalance"]}
+
+    # ------------------------------------------------------------------ end of the run
+    def collect(self, sim):
+        self.loads_report = observables.rank_loads(sim)
+        t = sim.timers.seconds
+        self.timers_max = {k: self.comm.allreduce_max(float(v)) for k, v in t.items()}
+        self.timers_total_max = self.comm.allreduce_max(float(sum(t.values())))
+        self.n_bodies = self.comm.allreduce_sum_int(sim.particles.n_local)
+
+    def scaling_record(self, sim, wall_s):
+        """What `bench.scaling_model --scene track` reads: sizes, timings and the load balance."""
+        g = profile(self.c)
+        steps = sim.step - self.step0
+        return {"scene": "track", "ranks": self.comm.size, "bodies": self.n_bodies, "steps": steps,
+                "rebuilds": sim.n_rebuilds - self.rebuilds0, "wall_s": wall_s, "spacing": self.c["spacing"],
+                "track_length": g["length"], "sleepers": self.c["sleepers"],
+                "bodies_per_metre": self.n_bodies / g["length"], "radius": self.c["radius"],
+                "radius_spread": self.c["radius_spread"], "timers_max_s": self.timers_max,
+                "timers_total_max_s": self.timers_total_max, "loads": self.loads_report,
+                "uptime": _load_average()}
+
+    def write_scaling(self, sim, wall_s):
+        rec = self.scaling_record(sim, wall_s)
+        (self.out / "scaling.json").write_text(json.dumps(rec, indent=1) + "\n")
+        return rec
+
+    def report_stop(self, sim, wall_s):
+        rec = self.write_scaling(sim, wall_s)
+        lines = balance_lines(rec) + ["", sim.timing_table()]
+        (self.out / "summary.txt").write_text("\n".join(lines) + "\n")
+        print("\n".join(lines), flush=True)
+
+    def finish(self, sim, wall_s):
+        finish(self, sim, wall_s)
+
+
+def _load_average():
+    try:
+        return [round(x, 2) for x in os.getloadavg()]
+    except OSError:
+        return None
+
+
+def balance_lines(rec):
+    ld = rec["loads"]
+    rate = rec["bodies"] * rec["steps"] / rec["wall_s"] if rec["wall_s"] > 0 else 0.0
+    lines = [f"ranks: {rec['ranks']}, bodies: {rec['bodies']}, steps in this run: {rec['steps']}, wall time "
+             f"{rec['wall_s']:.1f} s ({1e3 * rec['wall_s'] / max(rec['steps'], 1):.2f} ms/step), throughput "
+             f"{rate / 1e6:.3f} M body-steps/s; load average {rec['uptime']}",
+             f"load balance (work = owned bodies + their contact ends): max/mean {ld['imbalance']:.3f}; slab edges "
+             f"{['%.3f' % e for e in ld['edges']] if ld['edges'] else '-'} m, halo {ld['halo'] * 1e3:.1f} mm, "
+             f"{ld['rebalanced']} edge move(s), {ld['migrated']} migration(s)",
+             "rank    owned   ghosts  contacts      work"]
+    for r in range(rec["ranks"]):
+        lines.append(f"{r:4d} {ld['owned'][r]:8d} {ld['ghosts'][r]:8d} {ld['contacts'][r]:9d} {ld['work'][r]:9.0f}")
+    return lines
+
+
+def finish(run, sim, wall_s):
+    """Rank 0 at the end: preparation plot, scaling.json, the analysis (`analysis.track`) and
+    summary.txt."""
+    from analysis.__main__ import main as analysis_main
+
+    out, c, t = run.out, run.c, run.t
+    rec = run.write_scaling(sim, wall_s)
+    if (out / "preparation.h5").exists() and run.state["prepared_from"] is None:
+        plot_preparation(out / "preparation.h5", out / "preparation.png", PREPARATION)
+    g = profile(c)
+    lines = [f"track section: {run.path}",
+             f"{'half (y >= 0), ' if c['half'] else ''}{c['sleepers']} sleeper(s) {c['sleeper_size']} m at "
+             f"{c['spacing']} m, bed depth {c['bed_depth']} m, shoulder {c['shoulder_width']} m, slope 1:{c['slope']}; "
+             f"track {g['length']:g} m x {g['y_toe'] - g['y_lo']:.3f} m at the toe; sleeper body "
+             f"{c['body_mass']:.1f} kg",
+             ""]
+    if run.state["prepared_from"]:
+        lines += [f"prepared bed: {run.state['prepared_from']}", ""]
+    lines += ["stage     t_end [s]    steps  spheres  unbalanced  bed top [m]  sleeper z [m]  balance  wall [s]"]
+    for r in run.state["stages"]:
+        z = f"{r['sleeper_z']:.4f}" if r.get("sleeper_z") is not None else "-"
+        lines.append(f"{r['stage']:<8} {r['t_end']:9.4f} {r['step_end']:8d} {r['spheres']:8d} "
+                     f"{r['unbalanced_force']:11.3g} {r['bed_top']:12.4f} {z:>14} "
+                     f"{r.get('balance', float('nan')):8.3f} {r['wall_s']:9.1f}")
+    lines += [""] + balance_lines(rec)
+    status = None
+    if t is not None and (out / "results.h5").exists():
+        lines += ["", f"traffic: {run.traffic_text()}"]
+        import h5py
+
+        with h5py.File(out / "results.h5", "r") as f:
+            if "passages" in f:
+                pg = {k: f["passages"][k][...] for k in f["passages"]}
+                lines.append("passage  t_end [s]  settlement peak mean/max [mm]  permanent mean/min/max [mm]  "
+                             "gap max [mm]")
+                for i in range(len(pg["passage"])):
+                    pk, pm = pg["settlement_peak"][i], pg["settlement_permanent"][i]
+                    lines.append(f"{int(pg['passage'][i]):7d} {pg['t_end'][i]:10.4f}  {1e3 * pk.mean():9.3f} "
+                                 f"{1e3 * pk.max():9.3f}            {1e3 * pm.mean():8.3f} {1e3 * pm.min():8.3f} "
+                                 f"{1e3 * pm.max():8.3f}   {1e3 * pg['gap'][i].max():9.3f}")
+        status = analysis_main(["track", str(out / "results.h5"), "--out", str(out / "analysis")])
+    lines += ["", sim.timing_table()]
+    (out / "summary.txt").write_text("\n".join(lines) + "\n")
+    print("\n".join(lines), flush=True)
+    print(f"wrote {out / 'summary.txt'}, {out / 'scaling.json'}"
+          + (f", {out / 'results.h5'} and {out / 'analysis'}/ (analysis exit status {status})" if status is not None
+             else ""), flush=True)
+
