@@ -1,5 +1,5 @@
 """Command line: ``python -m analysis box RESULTS.h5 [--out DIR]``; also ``grading``, ``blast``,
-``track`` (each defined by its module's ``add_parser``), ``campaign DIR`` (`analysis.campaign`),
+``track``, ``oedometer`` (each defined by its module's ``add_parser``), ``campaign DIR`` (`analysis.campaign`),
 ``error-vs-runtime DIR`` (`analysis.error_vs_runtime`) and ``stability DIR [DIR ...]``
 (`analysis.stability`: exit status 1 when the stability map fails or is not finished).
 
@@ -14,7 +14,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from . import blast, grading, track
+from . import blast, grading, oedometer, track
 from .box import analyse_box
 from .io import ResultFileError, read_box_test
 from .plots import plot_loops, plot_settlement, plot_stiffness
@@ -49,7 +49,7 @@ def build_parser() -> argparse.ArgumentParser:
     box.add_argument("--unload-fraction", type=float, default=UNLOADING_FRACTION,
                      metavar="F", help="part of the force drop used for the unloading "
                                        "stiffness (default: %(default)s)")
-    for module in (grading, blast, track):
+    for module in (grading, blast, track, oedometer):
         module.add_parser(sub)
     from . import campaign, error_vs_runtime, stability
 

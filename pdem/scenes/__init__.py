@@ -3,12 +3,14 @@
 A scene is a module with ``check(doc)`` (validate a parsed scene file without running it: one-line
 `InputError`) and ``run(path, doc, out_dir, comm, steps=None, fresh=False)`` (run or resume it on
 the ranks of ``comm``; returns the exit status). A scene file selects one by its top-level table
-(``[box_test]`` → `pdem.scenes.box_test`, ``[track]`` → `pdem.scenes.track`); a file with none
+(``[box_test]`` → `pdem.scenes.box_test`, ``[track]`` → `pdem.scenes.track`, ``[oedometer]`` →
+`pdem.scenes.oedometer`); a file with none
 of them is a plain scene (`pdem.driver.plain`). Adding a scene is its module plus one line in `SCENES`.
 """
 from importlib import import_module
 
-SCENES = {"box_test": "pdem.scenes.box_test", "blast": "pdem.scenes.blast", "track": "pdem.scenes.track"}
+SCENES = {"box_test": "pdem.scenes.box_test", "blast": "pdem.scenes.blast", "track": "pdem.scenes.track",
+          "oedometer": "pdem.scenes.oedometer"}
 
 
 def find(doc):

@@ -1,0 +1,385 @@
+"""The oedometer (SPEC.md 2.2; thesis ch. 4; Nottingham test, Lim 2004): a steel cylinder filled
+with ballast (spheres, rigid clumps or breakable clumps), compressed by a platen, on any number
+of ranks.
+
+Geometry (axis along z through x = y = 0, units SI): a base plane z = 0, a wall of ``facets``
+flat faces (each two triangles) of a cylinder of ``diameter`` [m] up to ``height`` [m], and while
+filling a collar of as many faces above it up to the top of the poured cloud (thesis 4.2,
+footnote 1). The platen is a rigid box (`pdem.boxes`, z translation only) of ``platen_thickness``
+[m] and ``platen_mass`` [kg] covering the cylinder (a square of side ``diameter``: boxes touch
+only spheres, so its corners outside the cylinder touch nothing).
+
+A scene file with an ``[oedometer]`` table (keys and defaults in `DEFAULTS`; the preparation
+pipeline's keys in `pdem.driver.preparation.PREPARATION_DEFAULTS`) runs the stages
+
+1. ``pour``     fill: a seeded cloud of grains on a cubic lattice inside the cylinder and collar,
+                bottom up until its solid volume is ``overfill`` × ``packing_fraction`` × the
+                cylinder's volume; settle under gravity.
+2. ``refill``   cut: remove every grain of which a sphere reaches above ``height`` (whole
+                clumps), remove the collar, place the platen on the cut; settle.
+3. ``vibrate``  optional (``vibration_time`` > 0): shake with friction lowered (the pipeline's
+                vibration).
+4. ``settle``   settle.
+5. ``load``     the platen carries F(t) = f_min + (f_max − f_min)(1 − cos 2π t/T)/2 for
+                0 ≤ t ≤ T = ``load_time`` [s] (thesis: "a force varying as a sine from 250 N to
+                1500 kN and back to 250 N"; `pdem.loads.Haversine`, one cycle), pushing down.
+
+Grains: spheres (radius ``radius`` [m], uniform in r (1 ± ``radius_spread``); thesis: Ø32.5 mm,
+(0.6–1.4) r) unless the table ``[oedometer.clumps]`` gives a grain (keys of ``[[clumps]]``,
+`pdem.config`: shape, radii, member_radius, breakable, stress_free, mass_model, discretization,
+samples); each copy turned by its own random rotation (seeded). Breakable clumps need law
+"cohesive". ``packing_fraction`` is the settled solid fraction of member spheres assumed to size
+the cloud.
+
+Output in the run directory: ``preparation.h5`` and ``preparation.png`` (the pipeline),
+``results.h5`` (kind "oedometer", `analysis.schema.OEDOMETER_SERIES`: ``platen_load`` [N, the
+program, down], ``platen_force`` [N, force of the ballast on the platen, up],
+``platen_displacement`` [m, down, zero when loading starts]; with breakable clumps
+``/fragments`` records "initial" (after the cut and settling), "vibrated" (after vibrating, if
+any), "peak" (at F_max) and "unloaded" (at the end), and every ``run.fragments_every`` steps),
+the analysis of `analysis.oedometer` in ``analysis/`` (force–displacement PNG, loading and
+unloading stiffness, grading curves and breakage indices) and ``summary.txt`` with the timing.
+"""
+from math import cos, pi
+
+import numpy as np
+from analysis.schema import OEDOMETER_SERIES
+
+from ..config import CLUMP_KEYS, check_keys, grain_shape, run_settings, scene_from_dict
+from ..driver.fragments import FragmentRecorder
+from ..driver.preparation import PREPARATION_DEFAULTS, PREPARATION_STAGES, PreparedRun, check_preparation, \
+    plot_preparation
+from ..driver.results import series_writer, write_root_attrs
+from ..driver.stages import append_bodies, append_tables, check_no_steps, clump_tables, empty_tables, \
+    next_free_clump, remove_above
+from ..errors import InputError
+from ..generators import sphere_radii
+from ..loads import Haversine
+from ..validate import boolean, number
+
+STAGES = PREPARATION_STAGES + ("load",)
+# [oedometer] keys and defaults (SPEC.md 2.2, thesis tables 4.1, 4.8, 4.15; stiffness in [materials])
+DEFAULTS = {
+    "diameter": 0.30, "height": 0.15, "facets": 24,
+    "ballast_material": "ballast", "wall_material": "steel", "platen_material": "steel",
+    **PREPARATION_DEFAULTS,
+    "radius_spread": 0.4,               # thesis: radii uniform in (0.6–1.4) r
+    "vibration_time": 0.0,              # optional vibration (thesis: vibrated and not vibrated samples)
+    "platen_thickness": 0.02,           # [m]
+    "platen_mass": 11.1,                # [kg] (a steel disc Ø300 × 20 mm)
+    "f_min": 250.0, "f_max": 1.5e6,     # [N]
+    "load_time": 0.2,                   # duration of the 250 N → F_max → 250 N program [s]
+    "lattice_gap": 0.05,                # gap between neighbouring grains of the poured lattice [-]
+}
+GRAIN_KEYS = CLUMP_KEYS - {"material", "box_lo", "box_hi", "count", "seed", "vel"}
+TOP = {"simulation", "run", "materials", "oedometer"}
+
+
+# ---------------------------------------------------------------------------- settings
+def settings(doc):
+    """The [oedometer] table with defaults, checked (one-line InputError naming the key)."""
+    check_keys("scene file", doc, TOP)
+    given = doc["oedometer"]
+    check_keys("oedometer", given, set(DEFAULTS) | {"clumps"})
+    c = {**DEFAULTS, **given}
+    for k in ("ballast_material", "wall_material", "platen_material"):
+        if not isinstance(c[k], str) or c[k] not in doc.get("materials", {}):
+            raise InputError(f"oedometer.{k} = {c[k]!r}: no [materials.{c[k]}] table in the scene file")
+    check_preparation("oedometer", c)
+    for k in ("diameter", "height", "platen_thickness", "platen_mass", "load_time"):
+        c[k] = number(f"oedometer.{k}", c[k], 0.0, lo_open=True, allow="a number > 0")
+    c["facets"] = number("oedometer.facets", c["facets"], 6, integer=True, allow="an integer >= 6")
+    c["lattice_gap"] = number("oedometer.lattice_gap", c["lattice_gap"], 0.0, allow="a number >= 0 [-]")
+    for k in ("f_min", "f_max"):
+        c[k] = number(f"oedometer.{k}", c[k], 0.0, allow="a force >= 0 [N]")
+    if c["f_max"] < c["f_min"]:
+        raise InputError(f"oedometer.f_max = {c['f_max']!r}: must be >= f_min = {c['f_min']!r} [N]")
+    if "steps" in doc.get("run", {}):
+        raise InputError("run.steps: not used by an oedometer (its stages end on settle_ratio, vibration_time and "
+                         "load_time in [oedometer]); remove it")
+    c["grain"] = grain_spec(doc, c)
+    return c
+
+
+def grain_spec(doc, c):
+    """None for spheres, else the checked [oedometer.clumps] table with (members, radii, breakable)."""
+    if "clumps" not in c:
+        return None
+    g = c["clumps"]
+    label = "oedometer.clumps"
+    check_keys(label, g, GRAIN_KEYS, ("shape",))
+    pos, radius = grain_shape(g, label)
+    g = dict(g)
+    g["breakable"] = boolean(f"{label}.breakable", g.get("breakable", False))
+    g["stress_free"] = boolean(f"{label}.stress_free", g.get("stress_free", True))
+    law = doc.get("simulation", {}).get("law", "linear")
+    if g["breakable"] and law != "cohesive":
+        raise InputError(f"{label}.breakable = true: bonds need simulation.law = \"cohesive\", got {law!r}")
+    g["members"], g["member_radii"] = pos, radius
+    return g
+
+
+def intact_members(c):
+    """Spheres of one intact grain (1 for spheres)."""
+    return 1 if c["grain"] is None else len(c["grain"]["member_radii"])
+
+
+# ---------------------------------------------------------------------------- geometry
+def ring_facets(radius, n, z0, z1):
+    """2n triangles [2n, 3, 3] of the n flat faces of a cylinder (polygon of vertices at
+    ``radius`` [m], axis z) between z0 and z1 [m]."""
+    a = 2.0 * pi * np.arange(n + 1) / n
+    x, y = radius * np.cos(a), radius * np.sin(a)
+    tri = []
+    for k in range(n):
+        p00, p10 = (x[k], y[k], z0), (x[k + 1], y[k + 1], z0)
+        p01, p11 = (x[k], y[k], z1), (x[k + 1], y[k + 1], z1)
+        tri += [(p00, p10, p11), (p00, p11, p01)]
+    return np.array(tri, np.float64)
+
+
+def inner_radius(c):
+    """Distance [m] from the axis to the flat faces of the wall."""
+    return 0.5 * c["diameter"] * cos(pi / c["facets"])
+
+
+def lattice_sites(c, reach, z0, count_volume, body_volume):
+    """Centres [n, 3] of a cubic lattice (spacing 2·reach·(1 + gap)) inside the cylinder (a body
+    of radius ``reach`` clear of the wall) from z0 up, bottom up and in a fixed order within a
+    layer, as many as give a solid volume of ``count_volume`` [m³] at ``body_volume`` each."""
+    a = 2.0 * reach * (1.0 + c["lattice_gap"])
+    rin = inner_radius(c) - reach
+    if rin < 0:
+        raise InputError(f"oedometer.diameter = {c['diameter']!r}: grains of diameter {2 * reach:.4g} m do not fit")
+    k = np.arange(-int(rin // a) - 1, int(rin // a) + 2)
+    gx, gy = np.meshgrid(k * a, k * a, indexing="ij")
+    inside = gx**2 + gy**2 <= rin**2
+    xy = np.stack([gx[inside], gy[inside]], axis=1)
+    n = max(int(np.ceil(count_volume / body_volume)), 1)
+    layers = int(np.ceil(n / len(xy)))
+    z = z0 + reach * (1.0 + c["lattice_gap"]) + a * np.arange(layers)
+    sites = np.concatenate([np.column_stack([xy, np.full(len(xy), zz)]) for zz in z])
+    return sites[:n]
+
+
+def fill_volume(c):
+    """Solid volume [m³] the poured cloud holds: overfill × packing fraction × cylinder."""
+    return c["overfill"] * c["packing_fraction"] * pi * inner_radius(c) ** 2 * c["height"]
+
+
+def sphere_fill(c, seed):
+    """(pos, radius) of the poured spheres."""
+    r, s = c["radius"], c["radius_spread"]
+    mean_r3 = r**3 if s == 0 else ((r * (1 + s)) ** 4 - (r * (1 - s)) ** 4) / (4 * 2 * r * s)
+    sites = lattice_sites(c, r * (1 + s), 0.0, fill_volume(c), 4.0 / 3.0 * pi * mean_r3)
+    rng = np.random.default_rng(seed)
+    sites = sites[np.lexsort((rng.random(len(sites)), sites[:, 2]))]
+    return sites, sphere_radii(len(sites), r, s, seed + 1)
+
+
+def grain_fill(c, seed):
+    """[(member pos, member radius)] of the poured grains, each turned at random."""
+    from ..clump_generators import random_rotations
+
+    g = c["grain"]
+    pos, radius = g["members"], g["member_radii"]
+    reach = float(np.max(np.sqrt(np.einsum("ij,ij->i", pos, pos)) + radius))
+    sites = lattice_sites(c, reach, 0.0, fill_volume(c), float(np.sum(4.0 / 3.0 * pi * radius**3)))
+    rot = random_rotations(len(sites), np.random.default_rng(seed))
+    return [(s + pos @ m.T, radius.copy()) for s, m in zip(sites, rot)]
+
+
+def platen_center(c, bottom):
+    return np.array([0.0, 0.0, bottom + 0.5 * c["platen_thickness"]])
+
+
+# ---------------------------------------------------------------------------- stage scenes
+def base_scene(doc):
+    base = {k: v for k, v in doc.items() if k in ("simulation", "materials")}
+    base["simulation"] = {**base.get("simulation", {}), "allow_initial_overlap": True}
+    return scene_from_dict(base)
+
+
+def stage_scene(doc, c, stage, tables, load_start=None, platen_z=None, collar_top=None):
+    """The `Scene` of ``stage`` holding the bodies of ``tables``: the base, the wall (and the
+    collar while pouring, up to ``collar_top`` [m]), the platen from ``refill`` on (loaded in ``load``)."""
+    scene = base_scene(doc)
+    wm = c["wall_material"]
+    scene.add_wall("z", 0.0, wm, sense=1, name="base")
+    for k, tri in enumerate(ring_facets(0.5 * c["diameter"], c["facets"], 0.0, c["height"])):
+        scene.add_facet(tri, wm, name=f"wall_{k}")
+    if stage == "pour" and collar_top is not None and collar_top > c["height"]:
+        for k, tri in enumerate(ring_facets(0.5 * c["diameter"], c["facets"], c["height"], collar_top)):
+            scene.add_facet(tri, wm, name=f"collar_{k}")
+    if STAGES.index(stage) >= STAGES.index("refill"):
+        center = platen_center(c, c["height"]) if platen_z is None else np.array([0.0, 0.0, platen_z])
+        load = (Haversine(c["f_min"], c["f_max"], 1.0 / c["load_time"], 1, start=load_start, label="oedometer")
+                if stage == "load" else None)
+        r = 0.5 * c["diameter"]
+        scene.add_box(center, (r, r, 0.5 * c["platen_thickness"]), c["platen_material"], c["platen_mass"],
+                      blocked="xyXYZ", load=load, damping=scene.settings["damping"], name="platen")
+    scene.add_sphere_columns(tables["particles"])
+    if "clumps" in tables:
+        scene.add_clump_tables(tables["clumps"], tables["clump_members"])
+    return scene
+
+
+# ---------------------------------------------------------------------------- records
+def load_sample(sim, reference, load=None):
+    """A row of the load record; ``reference`` is the platen centre height where loading started."""
+    e = sim.energy()
+    bx = sim.boxes
+    return {"step": sim.step, "time": sim.time, "dt": sim.dt,
+            "platen_load": float(-bx.load_force[0, 2]) if load is None else float(load),
+            "platen_force": float(bx.contact_force[0, 2]),
+            "platen_displacement": float(reference - bx.center[0, 2]),
+            "kinetic_energy": e["kinetic"] + e["rotational"], "contacts_per_particle": sim.contacts_per_particle()}
+
+
+# ---------------------------------------------------------------------------- the run
+def check(doc):
+    """Check a parsed oedometer scene file without running it (one-line InputError)."""
+    c = settings(doc)
+    run_settings(doc)
+    stage_scene(doc, c, "load", empty_tables(), 0.0, None)
+
+
+def run(path, doc, out_dir, comm, steps=None, fresh=False):
+    """Run (or resume) the oedometer of a parsed scene file; returns the exit status."""
+    check_no_steps(steps)
+    return OedometerRun(path, doc, out_dir, comm, fresh).run()
+
+
+class OedometerRun(PreparedRun):
+    """One oedometer test on this process's ranks: the preparation pipeline in the cylinder, the
+    load stage, its records (results.h5, fragments) and the finishing analysis."""
+
+    NAME = "oedometer"
+    STAGES = STAGES
+
+    def __init__(self, path, doc, out_dir, comm, fresh):
+        self.c = settings(doc)
+        super().__init__(path, doc, out_dir, comm, fresh)
+
+    def initial_state(self):
+        return {"load_start": None, "reference": None, "peak_recorded": False, "collar_top": None}
+
+    @property
+    def breakable(self):
+        g = self.c["grain"]
+        return g is not None and g["breakable"]
+
+    def open_results(self):
+        restart, comm = self.restart_step, self.comm
+        self.results = self.out / "results.h5"
+        self.series = series_writer(self.results, OEDOMETER_SERIES, comm, restart_step=restart)
+        self.loop.flush.append(self.series)
+        if comm.rank == 0:
+            doc = self.doc
+            write_root_attrs(self.results, {k: doc[k] for k in ("simulation", "materials", "oedometer") if k in doc},
+                             "oedometer")
+        self.fragments = (FragmentRecorder(self.results, comm, every=self.run_cfg["fragments_every"])
+                          if self.breakable else None)
+
+    def close_results(self):
+        self.series.close()
+
+    # ------------------------------------------------------------------ preparation
+    def pour(self, tables):
+        tables, note = self.pour_grains()
+        p = tables["particles"]
+        self.state["collar_top"] = 1.05 * float(np.max(p["pos"][:, 2] + p["radius"]))
+        return tables, note + f", collar up to {self.state['collar_top']:.4f} m"
+
+    def pour_grains(self):
+        c, doc = self.c, self.doc
+        mat = c["ballast_material"]
+        if c["grain"] is None:
+            pos, radius = sphere_fill(c, c["seed"])
+            tables = append_bodies(empty_tables(), pos, radius, doc["materials"][mat]["density"],
+                                   list(doc["materials"]).index(mat), 0)
+            return tables, f"poured {len(radius)} spheres"
+        g = c["grain"]
+        grains = grain_fill(c, c["seed"])
+        kw = {"breakable": g["breakable"], "mass_model": g.get("mass_model", "members"),
+              "discretization": g.get("discretization", 0), "samples": g.get("samples", 0), "seed": c["seed"]}
+        if g["breakable"]:
+            kw["stress_free"] = g["stress_free"]
+        new = clump_tables(base_scene(doc), grains, mat, 0, next_free_clump(empty_tables()), **kw)
+        tables = append_tables(empty_tables(), new)
+        kind = "breakable" if g["breakable"] else "rigid"
+        return tables, f"poured {len(grains)} {kind} clumps of {len(g['member_radii'])} spheres"
+
+    def refill(self, tables):
+        h = self.c["height"]
+        tables, removed = remove_above(tables, h)
+        tables.pop("facets", None)  # the collar goes: the wall's facets (the first ones) are fixed, built anew
+        return tables, f"removed {removed} spheres above {h} m (whole grains), removed the collar, placed the platen"
+
+    def open_load_stage(self, stage, tables):
+        self.state["load_start"] = float(self.meta["time"]) if self.meta else 0.0
+        return tables, ""
+
+    def stage_scene(self, stage, tables):
+        z = float(tables["boxes"]["center"][0][2]) if "boxes" in tables else None
+        return stage_scene(self.doc, self.c, stage, tables, self.state["load_start"], z, self.state["collar_top"])
+
+    def bodies_note(self, sim):
+        return "" if sim.boxes is None else f", platen bottom {sim.boxes.center[0, 2] - sim.boxes.half[0, 2]:.4f} m"
+
+    def after_stage(self, stage, sim):
+        if self.fragments is not None:
+            label = {"refill": "initial", "load": "unloaded"}.get(stage)
+            if stage == "vibrate" and self.c["vibration_time"] > 0:
+                label = "vibrated"
+            if label:
+                self.fragments.record(sim, label)
+        if stage == "settle":  # the first row of the load record: the platen where loading starts
+            self.state["reference"] = float(sim.boxes.center[0, 2])
+            self.series.append(load_sample(sim, self.state["reference"], load=self.c["f_min"]))
+
+    # ------------------------------------------------------------------ loading
+    def load_program(self, stage, sim, scene):
+        c, state, run = self.c, self.state, self.run_cfg
+        t_peak = state["load_start"] + 0.5 * c["load_time"]
+        t_end = state["load_start"] + c["load_time"]
+        frag = self.fragments
+
+        def on_step(sim):
+            if frag is not None:
+                frag.on_step(sim)
+                if not state["peak_recorded"] and sim.time >= t_peak:
+                    frag.record(sim, "peak")
+                    state["peak_recorded"] = True
+            if run["output_every"] and sim.step % run["output_every"] == 0:
+                self.series.append(load_sample(sim, state["reference"]))
+            self.snapshot(sim)
+
+        return on_step, lambda sim: sim.time >= t_end, 1, t_end
+
+    def finish(self, sim, wall_s):
+        finish(self.out, self.results, self.state, self.c, self.path, self.comm.size, wall_s, sim)
+
+
+def finish(out, results, state, c, path, ranks, wall_s, sim):
+    """Rank 0 at the end: plots, the analysis (`analysis.oedometer`) and summary.txt with timing."""
+    from analysis.__main__ import main as analysis_main
+
+    plot_preparation(out / "preparation.h5", out / "preparation.png", STAGES)
+    status = analysis_main(["oedometer", str(results), "--out", str(out / "analysis"), "--intact-members",
+                            str(intact_members(c))])
+    lines = [f"oedometer: {path}", f"ranks: {ranks}", f"wall time: {wall_s:.1f} s", "",
+             "stage     t_end [s]    steps  spheres  unbalanced  bed top [m]  platen z [m]  wall [s]"]
+    for r in state["stages"]:
+        z = f"{r['sleeper_z']:.4f}" if r["sleeper_z"] is not None else "-"
+        lines.append(f"{r['stage']:<8} {r['t_end']:9.4f} {r['step_end']:8d} {r['spheres']:8d} "
+                     f"{r['unbalanced_force']:11.3g} {r['bed_top']:12.4f} {z:>13} {r['wall_s']:9.1f}")
+    report = out / "analysis" / "oedometer.txt"
+    if report.exists():
+        lines += ["", report.read_text().rstrip()]
+    lines += ["", sim.timing_table()]
+    (out / "summary.txt").write_text("\n".join(lines) + "\n")
+    print("\n".join(lines), flush=True)
+    print(f"wrote {results}, {out / 'preparation.h5'}, {out / 'summary.txt'} and {out / 'analysis'}/ "
+          f"(analysis exit status {status})", flush=True)
+
