@@ -241,6 +241,10 @@ def check(doc):
     """Check a parsed oedometer scene file without running it (one-line InputError)."""
     c = settings(doc)
     run_settings(doc)
+    if c["grain"] is None:  # the grains fit the cylinder
+        sphere_fill(c, c["seed"])
+    else:
+        grain_fill(c, c["seed"])
     stage_scene(doc, c, "load", empty_tables(), 0.0, None)
 
 
@@ -334,6 +338,9 @@ class OedometerRun(PreparedRun):
                 label = "vibrated"
             if label:
                 self.fragments.record(sim, label)
+        every = self.run_cfg["output_every"]
+        if stage == "load" and not (every and sim.step % every == 0):  # the last row: the end of unloading
+            self.series.append(load_sample(sim, self.state["reference"]))
         if stage == "settle":  # the first row of the load record: the platen where loading starts
             self.state["reference"] = float(sim.boxes.center[0, 2])
             self.series.append(load_sample(sim, self.state["reference"], load=self.c["f_min"]))

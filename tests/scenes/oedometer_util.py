@@ -1,0 +1,57 @@
+"""Helpers of the oedometer tests: the CI scene file with changes, and bit-for-bit comparison of
+two runs' HDF5 outputs and final checkpoints."""
+import tomllib
+from pathlib import Path
+
+import h5py
+import numpy as np
+
+from pdem.io.checkpoint import list_checkpoints, read_checkpoint
+
+CI_JOB = Path(__file__).resolve().parents[2] / "jobs" / "oedometer_ci.toml"
+
+
+def ci_doc(**oedometer):
+    """The parsed CI job with ``oedometer`` keys replaced."""
+    doc = tomllib.loads(CI_JOB.read_text())
+    doc["oedometer"].update(oedometer)
+    return doc
+
+
+def toml_text(doc):
+    """TOML text of a parsed scene file (tables of scalars, lists and subtables)."""
+    from pdem.campaign.tomlw import dumps
+
+    return dumps(doc)
+
+
+def datasets(path):
+    """{"/group/.../name": array} of every dataset in an HDF5 file."""
+    out = {}
+    with h5py.File(path, "r") as f:
+        f.visititems(lambda name, obj: out.__setitem__(name, obj[()]) if isinstance(obj, h5py.Dataset) else None)
+    return out
+
+
+def run_differences(ref, got, files=("results.h5", "preparation.h5")):
+    """What differs between two run directories (HDF5 datasets bit for bit, last checkpoint's
+    particles and platen); [] if nothing."""
+    bad = []
+    for name in files:
+        a, b = datasets(Path(ref) / name), datasets(Path(got) / name)
+        if sorted(a) != sorted(b):
+            bad.append(f"{name}: datasets {sorted(set(a) ^ set(b))}")
+            continue
+        bad += [f"{name}:/{k}" for k in a if not (a[k].shape == b[k].shape and
+                                                 np.array_equal(np.asarray(a[k]).view(np.uint8),
+                                                                np.asarray(b[k]).view(np.uint8)))]
+    last = lambda d: read_checkpoint(list_checkpoints(Path(d) / "checkpoints")[-1][1])[0]  # noqa: E731
+    ta, tb = last(ref), last(got)
+    order = lambda t: np.argsort(t["particles"]["gid"])  # noqa: E731
+    oa, ob = order(ta), order(tb)
+    for c in ta["particles"]:
+        if not np.array_equal(ta["particles"][c][oa], tb["particles"][c][ob]):
+            bad.append(f"checkpoint particles/{c}")
+    if not np.array_equal(ta["boxes"]["center"], tb["boxes"]["center"]):
+        bad.append("checkpoint boxes/center")
+    return bad

@@ -1,0 +1,161 @@
+"""The oedometer (`pdem.scenes.oedometer`, SPEC 2.2): input errors, the reduced breakable-clump
+oedometer of jobs/oedometer_ci.toml end to end through the command line, and its resume.
+
+End to end: every stage runs; the platen's applied load is the program 250 N → F_max → 250 N
+(here scaled: f_min → f_max → f_min, a haversine of one period) at every sample; the ballast
+carries the platen (mean ballast force over the load stage = mean load + platen weight, the
+platen's momentum balance); the fragment records "initial", "vibrated", "peak", "unloaded"
+hold the same mass (bonds break, mass stays), the initial one has only intact grains and the
+peak one has broken grains; the grading and stiffness analysis is written. A run resumed from
+the checkpoint at the end of a stage ends with the same bits (series, fragments, bodies).
+"""
+import math
+import shutil
+
+import h5py
+import numpy as np
+import pytest
+from oedometer_util import CI_JOB, ci_doc, run_differences, toml_text
+
+from analysis.groups import read_fragments
+from pdem.errors import InputError
+from pdem.io.checkpoint import list_checkpoints
+from pdem.scenes import oedometer
+from pdem_cli import run_pdem
+
+
+# ---------------------------------------------------------------------------- input errors
+@pytest.mark.parametrize("change, field", [
+    ({"diameter": -0.3}, "oedometer.diameter"),
+    ({"facets": 3}, "oedometer.facets"),
+    ({"f_max": 0.1}, "oedometer.f_max"),
+    ({"load_time": "fast"}, "oedometer.load_time"),
+    ({"wall_material": "glass"}, "oedometer.wall_material"),
+    ({"heigth": 0.15}, "oedometer.heigth"),
+    ({"clumps": {"shape": "cube"}}, "oedometer.clumps.shape"),
+    ({"clumps": {"shape": "ellipsoid", "radii": [0.01, 0.01, 0.01], "member_radius": 0.003, "count": 5}},
+     "oedometer.clumps.count"),
+    ({"clumps": {"shape": "nottingham", "breakable": "yes"}}, "oedometer.clumps.breakable"),
+    ({"radius_spread": 1.0}, "oedometer.radius_spread"),
+])
+def test_input_errors_name_the_field(change, field):
+    doc = ci_doc(**change)
+    with pytest.raises(InputError) as e:
+        oedometer.check(doc)
+    msg = str(e.value)
+    assert field in msg and "\n" not in msg, msg
+
+
+def test_breakable_needs_the_cohesive_law():
+    doc = ci_doc()
+    doc["simulation"]["law"] = "linear"
+    for m in doc["materials"].values():
+        m.pop("normal_cohesion"), m.pop("shear_cohesion")
+    with pytest.raises(InputError, match="oedometer.clumps.breakable.*cohesive"):
+        oedometer.check(doc)
+
+
+def test_grains_must_fit():
+    with pytest.raises(InputError, match="oedometer.diameter"):
+        oedometer.check(ci_doc(diameter=0.012))
+    doc = ci_doc(diameter=0.03)
+    del doc["oedometer"]["clumps"]
+    with pytest.raises(InputError, match="oedometer.diameter"):
+        oedometer.check(doc)
+
+
+def test_steps_refused_through_the_cli(tmp_path):
+    r = run_pdem(1, CI_JOB, tmp_path / "r", "--steps", "10", expect=2)
+    assert "--steps" in r.stderr and len(r.stderr.strip().splitlines()) == 1
+
+
+def test_cylinder_geometry():
+    """24 faces of two triangles each, vertices on the circle, closed around the axis."""
+    tri = oedometer.ring_facets(0.15, 24, 0.0, 0.15)
+    assert tri.shape == (48, 3, 3)
+    assert np.allclose(np.hypot(tri[..., 0], tri[..., 1]), 0.15)
+    assert set(np.round(tri[..., 2].ravel(), 12)) == {0.0, 0.15}
+    c = oedometer.settings(ci_doc())
+    sites = oedometer.lattice_sites(c, 0.008, 0.0, 100.0, 1.0)
+    assert len(sites) == 100 and np.all(np.hypot(sites[:, 0], sites[:, 1]) + 0.008 <= oedometer.inner_radius(c))
+
+
+# ---------------------------------------------------------------------------- end to end
+@pytest.fixture(scope="module")
+def r1(tmp_path_factory):
+    out = tmp_path_factory.mktemp("oedometer") / "r1"
+    run_pdem(1, CI_JOB, out)
+    return out
+
+
+@pytest.mark.slow
+def test_platen_follows_the_program(r1):
+    """slow: a whole reduced oedometer through `pdem run` (~20 s on a loaded 2-core machine)."""
+    c = oedometer.settings(ci_doc())
+    with h5py.File(r1 / "results.h5", "r") as f:
+        assert f.attrs["kind"] == "oedometer"
+        s = {k: f["series"][k][()] for k in f["series"]}
+    t0, T = s["time"][0], c["load_time"]
+    at = np.concatenate([[t0], (s["time"] - s["dt"])[1:]])  # the load of a step acts from its start
+    expect = [c["f_min"] + (c["f_max"] - c["f_min"]) * (1 - math.cos(2 * math.pi * (t - t0) / T)) / 2
+              if t0 < t < t0 + T else c["f_min"] for t in at]
+    # within what a change of Δt between the step and its sample can shift (Δt is updated every
+    # dt_interval steps; the series holds the new one): 20 % of Δt at the steepest slope
+    slope = math.pi * (c["f_max"] - c["f_min"]) / T
+    np.testing.assert_allclose(s["platen_load"], expect, rtol=0, atol=0.2 * slope * s["dt"].max())
+    assert np.mean(np.isclose(s["platen_load"], expect, rtol=1e-12, atol=1e-9)) > 0.8
+    assert s["time"][-1] >= t0 + T and abs(s["platen_load"].max() - c["f_max"]) < 1e-3 * c["f_max"]
+    # the platen's momentum balance over the load: mean ballast force = mean load + weight
+    weight = c["platen_mass"] * 9.81
+    mean_force = np.trapezoid(s["platen_force"], s["time"]) / (s["time"][-1] - t0)
+    mean_load = np.trapezoid(s["platen_load"], s["time"]) / (s["time"][-1] - t0)
+    assert mean_force == pytest.approx(mean_load + weight, rel=0.1)
+    assert s["platen_displacement"][0] == 0.0 and s["platen_displacement"].max() > 0
+
+
+@pytest.mark.slow
+def test_fragments_and_grading(r1):
+    """slow: uses the run of `test_platen_follows_the_program`."""
+    fr = read_fragments(r1 / "results.h5")
+    labels = [r.label for r in fr.records]
+    assert labels == ["initial", "vibrated", "peak", "unloaded"]
+    mass = [r.mass.sum() for r in fr.records]
+    assert np.allclose(mass, mass[0], rtol=1e-12)
+    n = oedometer.intact_members(oedometer.settings(ci_doc()))
+    initial, peak = fr.records[0], fr.records[2]
+    assert np.all(initial.n_members == n)  # whole grains after the cut
+    assert len(peak.n_members) > len(initial.n_members) and peak.n_members.min() == 1  # breakage at F_max
+    text = (r1 / "analysis" / "grading.txt").read_text()
+    assert "B_g" in text and "BBI" in text
+    report = (r1 / "analysis" / "oedometer.txt").read_text()
+    assert "unloading stiffness" in report
+    for png in ("oedometer.png", "grading.png"):
+        assert (r1 / "analysis" / png).stat().st_size > 1000
+    assert (r1 / "preparation.png").exists() and "load" in (r1 / "summary.txt").read_text()
+
+
+@pytest.mark.slow
+def test_resume_after_a_stage_checkpoint(r1, tmp_path):
+    """slow: reruns the stages after 'refill' of the reduced oedometer (~10 s)."""
+    got = tmp_path / "resumed"
+    shutil.copytree(r1, got)
+    cks = list_checkpoints(got / "checkpoints")
+    step = cks[1][0]  # end of stage refill
+    for s, p in cks[2:]:
+        p.unlink()
+    with h5py.File(got / "results.h5", "a") as f:  # records written after the checkpoint must come back
+        for label in list(f["fragments"]):
+            if f["fragments"][label].attrs["step"] > step:
+                del f["fragments"][label]
+    shutil.rmtree(got / "analysis")
+    r = run_pdem(1, CI_JOB, got)
+    assert "resuming" in r.stdout
+    assert run_differences(r1, got) == []
+
+
+def test_scene_file_round_trip(tmp_path):
+    """The helper's TOML writer keeps the CI scene (the MPI test writes variants with it)."""
+    import tomllib
+
+    doc = ci_doc(load_time=0.05)
+    assert tomllib.loads(toml_text(doc)) == doc
