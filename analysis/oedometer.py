@@ -35,7 +35,7 @@ import numpy as np
 
 from .groups import results_file
 from .io import ResultFileError, read_results
-from .stiffness import LOADING_WINDOW, loading_stiffness, unloading_stiffness
+from .stiffness import LOADING_WINDOW, loading_stiffness, slope, unloading_stiffness
 
 OEDOMETER_SERIES = ("platen_load", "platen_force", "platen_displacement")
 UNLOADING_FRACTION = 0.3   # part of the force drop of the unloading slope (the start of unloading)
@@ -72,10 +72,16 @@ def analyse(series, window=LOADING_WINDOW, fraction=UNLOADING_FRACTION) -> Oedom
     """Stiffnesses and extremes of a load–unload record (dict of arrays as in /series)."""
     f, u, load = (np.asarray(series[k], np.float64) for k in ("platen_force", "platen_displacement", "platen_load"))
     peak = int(np.argmax(load))
+    if peak == len(f) - 1:
+        raise ValueError("the record ends at its largest load: no unloading branch")
+    try:
+        k_unload = unloading_stiffness(f, u, fraction, peak=peak)
+    except ValueError:  # a sparse record: the first drop is already beyond the fraction
+        k_unload = slope(f[peak:peak + 2], u[peak:peak + 2])
     return OedometerResult(
         f_max=float(f.max()), load_max=float(load.max()), u_max=float(u.max()), u_end=float(u[-1]),
-        loading_stiffness=loading_stiffness(f, u, window, peak=peak),
-        unloading_stiffness=unloading_stiffness(f, u, fraction, peak=peak), n_samples=len(f))
+        loading_stiffness=loading_stiffness(f, u, window, peak=peak), unloading_stiffness=k_unload,
+        n_samples=len(f))
 
 
 def identify_modulus(moduli, stiffnesses, target):
