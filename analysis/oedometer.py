@@ -179,7 +179,8 @@ def add_parser(sub) -> None:
         description="Write oedometer.png, oedometer.txt and oedometer.json (and with /fragments the "
                     "grading files) for a kind 'oedometer' result.")
     p.add_argument("results", type=Path, metavar="RUN_OR_FILE", help="run directory (with results.h5) or results file")
-    p.add_argument("--out", type=Path, metavar="DIR", help="output directory (default: RESULTS-analysis beside the file)")
+    p.add_argument("--out", type=Path, metavar="DIR",
+                   help="output directory (default: RESULTS-analysis beside the file)")
     p.add_argument("--intact-members", type=int, default=135, metavar="N",
                    help="spheres of an intact grain (default: %(default)s, Nottingham)")
     p.set_defaults(run=lambda a: run_oedometer(a.results, a.out, a.intact_members))

@@ -5,10 +5,11 @@ One command runs the four grain shapes of table 4.11 — sphere (24, 24, 24), el
 spheres on a grid (`pdem.clump_generators`) — in the oedometer, then tabulates and plots the
 loading and unloading stiffness of the platen record (`analysis.oedometer`):
 
-    python jobs/oedometer_shapes.py --out runs/oedometer_shapes [--ranks 2] [--scale 0.5]
+    python jobs/oedometer_shapes.py --out runs/oedometer_shapes [--ranks 2] [--scale 0.4] [--grain-scale 0.5]
 
-Reduced size (defaults): every length × ``scale`` = 0.5 (cylinder Ø150 × 75 mm, grains half
-size), member radius 3 mm (the thesis's 3.6 mm at full size would give ~90 members a grain),
+Reduced size (defaults): the cylinder's lengths × ``scale`` = 0.4 (Ø120 × 60 mm), the grains'
+× ``grain_scale`` = 0.5 (the sphere R = 12 mm: 5 grains across the cylinder instead of the
+thesis's 6.25, about 100 grains), member radius 3 mm (the thesis's 3.6 mm at full size would give ~90 members a grain),
 the thesis's study stiffness lowered as in its table 4.13 (E_k = 5.55e6 Pa, steel 10 E_k,
 φ_steel 0.3) and F_max = 1500 N × scale² (the same stress). The thesis found the spheres
 stiffest and the cakes softest ("the stiffness depends on how well the clumps fill the
@@ -33,9 +34,10 @@ from pdem.clump_generators import THESIS_SHAPES  # noqa: E402
 SHAPES = ("sphere", "ellipsoid", "cylinder", "cake")
 
 
-def scene(shape, scale, member_radius, seed):
-    """The scene file (parsed) of one shape."""
-    radii = [scale * r for r in THESIS_SHAPES[shape]]
+def scene(shape, scale, member_radius, seed, grain_scale=None):
+    """The scene file (parsed) of one shape: the cylinder's lengths × ``scale``, the grain's ×
+    ``grain_scale`` (default ``scale``)."""
+    radii = [(scale if grain_scale is None else grain_scale) * r for r in THESIS_SHAPES[shape]]
     return {
         "simulation": {"law": "linear", "dt": "auto", "damping": 0.3, "gravity": [0.0, 0.0, -9.81],
                        "slab_axis": "x"},
@@ -71,7 +73,8 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", type=Path, required=True)
     ap.add_argument("--ranks", type=int, default=1)
-    ap.add_argument("--scale", type=float, default=0.5)
+    ap.add_argument("--scale", type=float, default=0.4, help="cylinder lengths x this (default %(default)s)")
+    ap.add_argument("--grain-scale", type=float, default=0.5, help="grain semi-axes x this (default %(default)s)")
     ap.add_argument("--member-radius", type=float, default=0.003)
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--only-analyse", action="store_true", help="analyse the runs already in --out")
@@ -80,7 +83,7 @@ def main(argv=None):
     for shape in SHAPES:
         run = a.out / shape
         if not a.only_analyse:
-            run_one(run, scene(shape, a.scale, a.member_radius, a.seed), a.ranks)
+            run_one(run, scene(shape, a.scale, a.member_radius, a.seed, a.grain_scale), a.ranks)
         res = read_oedometer(run / "results.h5")
         r = analyse(res.series)
         summary = (run / "summary.txt").read_text().splitlines()
@@ -91,7 +94,8 @@ def main(argv=None):
     order_load = sorted(SHAPES, key=lambda s: -rows[s]["loading_kN_per_mm"])
     order_unload = sorted(SHAPES, key=lambda s: -rows[s]["unloading_kN_per_mm"])
     thesis = lambda order: order[0] == "sphere" and order[-1] == "cake"  # noqa: E731
-    lines = [f"oedometer shape study (thesis table 4.11) at scale {a.scale}, member radius {a.member_radius * 1e3} mm",
+    lines = [f"oedometer shape study (thesis table 4.11): cylinder x {a.scale}, grains x {a.grain_scale}, member "
+             f"radius {a.member_radius * 1e3} mm",
              "shape       spheres  k_load [kN/mm]  k_unload [kN/mm]  u_max [mm]  u_end [mm]"]
     for s in SHAPES:
         w = rows[s]

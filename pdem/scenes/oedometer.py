@@ -329,13 +329,13 @@ class OedometerRun(PreparedRun):
         return stage_scene(self.doc, self.c, stage, tables, self.state["load_start"], z, self.state["collar_top"])
 
     def bodies_settled(self, sim):
-        """The pour ends only after the time a grain needs to fall from the top of the collar,
-        sqrt(2 h/g): before, a few hard impacts make the unbalanced-force ratio small while most
-        grains are still in the air."""
+        """The pour ends only after 1.5 × the time a grain needs to fall from the top of the
+        collar, sqrt(2 h/((1 − λ_D) g)) (Cundall damping slows a free fall): before, a few hard
+        impacts make the unbalanced-force ratio small while most grains are still in the air."""
         if self.state["stage"] != 0:
             return True
-        g = float(np.linalg.norm(sim.gravity))
-        return g == 0.0 or sim.time - self.state["stage_t0"] >= (2.0 * self.state["collar_top"] / g) ** 0.5
+        g = float(np.linalg.norm(sim.gravity)) * (1.0 - float(sim.damping))
+        return g <= 0.0 or sim.time - self.state["stage_t0"] >= 1.5 * (2.0 * self.state["collar_top"] / g) ** 0.5
 
     def bodies_note(self, sim):
         return "" if sim.boxes is None else f", platen bottom {sim.boxes.center[0, 2] - sim.boxes.half[0, 2]:.4f} m"
