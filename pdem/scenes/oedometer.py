@@ -143,12 +143,12 @@ def inner_radius(c):
     return 0.5 * c["diameter"] * cos(pi / c["facets"])
 
 
-def lattice_sites(c, reach, z0, count_volume, body_volume):
-    """Centres [n, 3] of a cubic lattice (spacing 2·reach·(1 + gap)) inside the cylinder (a body
-    of radius ``reach`` clear of the wall) from z0 up, bottom up and in a fixed order within a
-    layer, as many as give a solid volume of ``count_volume`` [m³] at ``body_volume`` each."""
+def lattice_sites(c, reach, z0, count_volume, body_volume, clear=None):
+    """Centres [n, 3] of a cubic lattice (spacing 2·reach·(1 + gap)) inside the cylinder (each
+    ``clear`` [m], default ``reach``, from the wall) from z0 up, bottom up and in a fixed order
+    within a layer, as many as give a solid volume of ``count_volume`` [m³] at ``body_volume`` each."""
     a = 2.0 * reach * (1.0 + c["lattice_gap"])
-    rin = inner_radius(c) - reach
+    rin = inner_radius(c) - (reach if clear is None else clear)
     if rin < 0:
         raise InputError(f"oedometer.diameter = {c['diameter']!r}: grains of diameter {2 * reach:.4g} m do not fit")
     k = np.arange(-int(rin // a) - 1, int(rin // a) + 2)
@@ -168,13 +168,21 @@ def fill_volume(c):
 
 
 def sphere_fill(c, seed):
-    """(pos, radius) of the poured spheres."""
+    """(pos, radius) of the poured spheres: lattice sites, each sphere moved off its site
+    horizontally at random within the disc inscribed in its cell (spheres exactly above each
+    other would fall into frictionless columns)."""
     r, s = c["radius"], c["radius_spread"]
     mean_r3 = r**3 if s == 0 else ((r * (1 + s)) ** 4 - (r * (1 - s)) ** 4) / (4 * 2 * r * s)
-    sites = lattice_sites(c, r * (1 + s), 0.0, fill_volume(c), 4.0 / 3.0 * pi * mean_r3)
+    half = r * (1 + s) * (1.0 + c["lattice_gap"])  # half the lattice spacing
+    sites = lattice_sites(c, r * (1 + s), 0.0, fill_volume(c), 4.0 / 3.0 * pi * mean_r3, clear=half)
     rng = np.random.default_rng(seed)
     sites = sites[np.lexsort((rng.random(len(sites)), sites[:, 2]))]
-    return sites, sphere_radii(len(sites), r, s, seed + 1)
+    radius = sphere_radii(len(sites), r, s, seed + 1)
+    room = half - radius
+    phi, rho = 2.0 * pi * rng.random(len(sites)), np.sqrt(rng.random(len(sites))) * room
+    sites[:, 0] += rho * np.cos(phi)
+    sites[:, 1] += rho * np.sin(phi)
+    return sites, radius
 
 
 def grain_fill(c, seed):
