@@ -10,8 +10,9 @@ loading and unloading stiffness of the platen record (`analysis.oedometer`):
 Reduced size (defaults): the cylinder's lengths × ``scale`` = 0.4 (Ø120 × 60 mm), the grains'
 × ``grain_scale`` = 0.5 (the sphere R = 12 mm: 5 grains across the cylinder instead of the
 thesis's 6.25, about 100 grains), member radius 3 mm (the thesis's 3.6 mm at full size would give ~90 members a grain),
-the thesis's study stiffness lowered as in its table 4.13 (E_k = 5.55e6 Pa, steel 10 E_k,
-φ_steel 0.3) and F_max = 1500 N × scale² (the same stress). The thesis found the spheres
+the thesis's study stiffness of table 4.9 lowered 100 times with the load (E_k = 5.55e7 Pa,
+steel 10 E_k, φ_steel 0.3; F_max = 150 kN / 100 × scale² = 1.5 kN × scale², the same F_max/(E_k A)
+as table 4.9). The thesis found the spheres
 stiffest and the cakes softest ("the stiffness depends on how well the clumps fill the
 oedometer"); the script says whether this run ranks them so. Writes, in --out: one run
 directory per shape, ``shapes.txt``, ``shapes.json`` and ``shapes.png``.
@@ -43,14 +44,14 @@ def scene(shape, scale, member_radius, seed, grain_scale=None):
                        "slab_axis": "x"},
         "run": {"progress_every": 0, "output_every": 20, "checkpoint_keep": 1},
         "materials": {
-            "ballast": {"density": 2600.0, "young": 5.55e6, "poisson": 0.3, "friction_angle": 0.5},
-            "steel": {"density": 7850.0, "young": 5.55e7, "poisson": 0.25, "friction_angle": 0.3},
+            "ballast": {"density": 2600.0, "young": 5.55e7, "poisson": 0.3, "friction_angle": 0.5},
+            "steel": {"density": 7850.0, "young": 5.55e8, "poisson": 0.25, "friction_angle": 0.3},
         },
         "oedometer": {
             "diameter": 0.30 * scale, "height": 0.15 * scale, "packing_fraction": 0.3, "overfill": 1.15,
-            "seed": seed, "settle_ratio": 0.02, "settle_min_time": 0.1, "settle_max_time": 0.6,
+            "seed": seed, "settle_ratio": 0.02, "settle_min_time": 0.1, "settle_max_time": 1.0,
             "vibration_time": 0.0, "platen_thickness": 0.02 * scale, "platen_mass": 11.1 * scale**3,
-            "f_min": 250.0 * scale**2 * 1e-3, "f_max": 1500.0 * scale**2, "load_time": 0.2,
+            "f_min": 2.5 * scale**2, "f_max": 1500.0 * scale**2, "load_time": 0.2,
             "clumps": {"shape": "ellipsoid", "radii": radii, "member_radius": member_radius},
         },
     }
