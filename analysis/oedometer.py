@@ -137,10 +137,10 @@ def plot_oedometer(series, r: OedometerResult, path) -> Path:
     ax.set_title(f"oedometer: k_load {r.loading_stiffness * KN / MM:.4g}, "
                  f"k_unload {r.unloading_stiffness * KN / MM:.4g} kN/mm")
     ax.grid(True, alpha=0.3)
-    ax.legend(loc="upper left", fontsize="small")
-    ins = ax.inset_axes([0.55, 0.1, 0.4, 0.4])
+    ax.legend(loc="lower right", fontsize="small")
+    ins = ax.inset_axes([0.1, 0.5, 0.38, 0.38])
     ins.plot((u[peak:] - u[peak]) * MM, f[peak:] * KN)
-    ins.set_title("unloading", fontsize="small")
+    ins.set_title("unloading (u - u_peak [mm], F [kN])", fontsize="x-small")
     ins.tick_params(labelsize="x-small")
     fig.tight_layout()
     path = Path(path)
