@@ -35,7 +35,7 @@ from pdem.clump_generators import THESIS_SHAPES  # noqa: E402
 SHAPES = ("sphere", "ellipsoid", "cylinder", "cake")
 
 
-def scene(shape, scale, member_radius, seed, grain_scale=None):
+def scene(shape, scale, member_radius, seed, grain_scale=None, settle_max_time=1.0):
     """The scene file (parsed) of one shape: the cylinder's lengths × ``scale``, the grain's ×
     ``grain_scale`` (default ``scale``)."""
     radii = [(scale if grain_scale is None else grain_scale) * r for r in THESIS_SHAPES[shape]]
@@ -49,7 +49,7 @@ def scene(shape, scale, member_radius, seed, grain_scale=None):
         },
         "oedometer": {
             "diameter": 0.30 * scale, "height": 0.15 * scale, "packing_fraction": 0.3, "overfill": 1.15,
-            "seed": seed, "settle_ratio": 0.02, "settle_min_time": 0.1, "settle_max_time": 1.0,
+            "seed": seed, "settle_ratio": 0.02, "settle_min_time": 0.1, "settle_max_time": settle_max_time,
             "vibration_time": 0.0, "platen_thickness": 0.02 * scale, "platen_mass": 11.1 * scale**3,
             "f_min": 2.5 * scale**2, "f_max": 1500.0 * scale**2, "load_time": 0.2,
             "clumps": {"shape": "ellipsoid", "radii": radii, "member_radius": member_radius},
@@ -78,13 +78,14 @@ def main(argv=None):
     ap.add_argument("--grain-scale", type=float, default=0.5, help="grain semi-axes x this (default %(default)s)")
     ap.add_argument("--member-radius", type=float, default=0.003)
     ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--settle-max-time", type=float, default=1.0, help="longest settling per stage [s]")
     ap.add_argument("--only-analyse", action="store_true", help="analyse the runs already in --out")
     a = ap.parse_args(argv)
     rows = {}
     for shape in SHAPES:
         run = a.out / shape
         if not a.only_analyse:
-            run_one(run, scene(shape, a.scale, a.member_radius, a.seed, a.grain_scale), a.ranks)
+            run_one(run, scene(shape, a.scale, a.member_radius, a.seed, a.grain_scale, a.settle_max_time), a.ranks)
         res = read_oedometer(run / "results.h5")
         r = analyse(res.series)
         summary = (run / "summary.txt").read_text().splitlines()
