@@ -197,6 +197,17 @@ def grain_fill(c, seed):
     return [(s + pos @ m.T, radius.copy()) for s, m in zip(sites, rot)]
 
 
+def clump_options(c):
+    """`Scene.add_clumps` options of the grains."""
+    g = c["grain"]
+    kw = {"breakable": g["breakable"], "mass_model": g.get("mass_model", "members"),
+          "discretization": g.get("discretization", 0), "samples": g.get("samples", 0), "seed": c["seed"],
+          "label": "oedometer.clumps"}
+    if g["breakable"]:
+        kw["stress_free"] = g["stress_free"]
+    return kw
+
+
 def platen_center(c, bottom):
     return np.array([0.0, 0.0, bottom + 0.5 * c["platen_thickness"]])
 
@@ -251,8 +262,8 @@ def check(doc):
     run_settings(doc)
     if c["grain"] is None:  # the grains fit the cylinder
         sphere_fill(c, c["seed"])
-    else:
-        grain_fill(c, c["seed"])
+    else:  # and make clumps (mass model, bonds)
+        clump_tables(base_scene(doc), grain_fill(c, c["seed"])[:1], c["ballast_material"], 0, 0, **clump_options(c))
     stage_scene(doc, c, "load", empty_tables(), 0.0, None)
 
 
@@ -313,11 +324,7 @@ class OedometerRun(PreparedRun):
             return tables, f"poured {len(radius)} spheres"
         g = c["grain"]
         grains = grain_fill(c, c["seed"])
-        kw = {"breakable": g["breakable"], "mass_model": g.get("mass_model", "members"),
-              "discretization": g.get("discretization", 0), "samples": g.get("samples", 0), "seed": c["seed"]}
-        if g["breakable"]:
-            kw["stress_free"] = g["stress_free"]
-        new = clump_tables(base_scene(doc), grains, mat, 0, next_free_clump(empty_tables()), **kw)
+        new = clump_tables(base_scene(doc), grains, mat, 0, next_free_clump(empty_tables()), **clump_options(c))
         tables = append_tables(empty_tables(), new)
         kind = "breakable" if g["breakable"] else "rigid"
         return tables, f"poured {len(grains)} {kind} clumps of {len(g['member_radii'])} spheres"

@@ -37,6 +37,7 @@ from pdem_cli import run_pdem
      "oedometer.clumps.count"),
     ({"clumps": {"shape": "nottingham", "breakable": "yes"}}, "oedometer.clumps.breakable"),
     ({"radius_spread": 1.0}, "oedometer.radius_spread"),
+    ({"clumps": {"shape": "nottingham", "mass_model": "exact"}}, "oedometer.clumps.mass_model"),
 ])
 def test_input_errors_name_the_field(change, field):
     doc = ci_doc(**change)
