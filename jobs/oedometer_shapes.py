@@ -35,7 +35,7 @@ from pdem.clump_generators import THESIS_SHAPES  # noqa: E402
 SHAPES = ("sphere", "ellipsoid", "cylinder", "cake")
 
 
-def scene(shape, scale, member_radius, seed, grain_scale=None, settle_max_time=1.0):
+def scene(shape, scale, member_radius, seed, grain_scale=None, settle_max_time=2.0):
     """The scene file (parsed) of one shape: the cylinder's lengths × ``scale``, the grain's ×
     ``grain_scale`` (default ``scale``)."""
     radii = [(scale if grain_scale is None else grain_scale) * r for r in THESIS_SHAPES[shape]]
@@ -78,7 +78,7 @@ def main(argv=None):
     ap.add_argument("--grain-scale", type=float, default=0.5, help="grain semi-axes x this (default %(default)s)")
     ap.add_argument("--member-radius", type=float, default=0.003)
     ap.add_argument("--seed", type=int, default=1)
-    ap.add_argument("--settle-max-time", type=float, default=1.0, help="longest settling per stage [s]")
+    ap.add_argument("--settle-max-time", type=float, default=2.0, help="longest settling per stage [s]")
     ap.add_argument("--only-analyse", action="store_true", help="analyse the runs already in --out")
     a = ap.parse_args(argv)
     rows = {}
