@@ -46,6 +46,8 @@ name = "b"
         rec = json.loads((out / name / "run.json").read_text())
         assert rec["exit"] == 0 and rec["attempts"][0]["ranks"] == 1 and rec["attempts"][0]["threads"] == 1
         assert rec["wall_s"] > 0 and rec["core_s"] == rec["wall_s"]
+        # the CPU time of the member's process, measured by the runner: one process, one thread
+        assert 0 < rec["cpu_s"] <= 1.1 * rec["wall_s"] + 0.5
         with h5py.File(out / name / "results.h5") as f:
             assert f["series"]["step"][-1] == 400
     # again: nothing to run (done skipped, failed skipped); with --retry-failed the failed one runs again
@@ -144,3 +146,4 @@ def test_two_rank_member_stops_and_resumes(tmp_path, tiny):
     rec = json.loads((out / "seed-7" / "run.json").read_text())
     assert [a["exit"] for a in rec["attempts"]] == [3, 0] and rec["attempts"][1]["ranks"] == 2
     assert rec["core_s"] == pytest.approx(2 * rec["wall_s"], abs=0.01)
+    assert all(a["cpu_s"] > 0 for a in rec["attempts"])  # mpiexec's tree: both ranks' CPU time
