@@ -58,8 +58,9 @@ name = "b"
     assert r3.returncode == 1 and states(out)["bad"]["attempts"] == 2 and states(out)["a"]["attempts"] == 1
 
 
-def wait_for_steps(logs, proc, timeout=120):
-    """Until every log shows a progress line of pdem's step loop (its signal handlers are in)."""
+def wait_for_steps(logs, proc, timeout=600):
+    """Until every log shows a progress line of pdem's step loop (its signal handlers are in); the first
+    members compile the kernels (minutes on a fresh numba cache of a loaded machine)."""
     t0 = time.monotonic()
     while time.monotonic() - t0 < timeout:
         assert proc.poll() is None, "the runner ended early"
@@ -90,7 +91,7 @@ values = [1, 2, 3]
     try:
         wait_for_steps([out / "seed-1" / "pdem.log", out / "seed-2" / "pdem.log"], proc)
         proc.send_signal(signal.SIGTERM)  # the runner only: it forwards to the members
-        text, _ = proc.communicate(timeout=120)
+        text, _ = proc.communicate(timeout=300)
     finally:
         if proc.poll() is None:
             proc.kill()
@@ -132,7 +133,7 @@ def test_two_rank_member_stops_and_resumes(tmp_path, tiny):
     try:
         wait_for_steps([out / "seed-7" / "pdem.log"], proc)
         proc.send_signal(signal.SIGTERM)
-        text, _ = proc.communicate(timeout=120)
+        text, _ = proc.communicate(timeout=300)
     finally:
         if proc.poll() is None:
             proc.kill()
