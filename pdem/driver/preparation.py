@@ -30,7 +30,7 @@ Keys and defaults of the pipeline: `PREPARATION_DEFAULTS` (a scene's table holds
 its own keys; `check_preparation` validates them). Records: ``preparation.h5`` (kind
 "preparation", `analysis.schema.PREPARATION_SERIES`: step, time, stage, spheres, kinetic
 energy, unbalanced force, contacts per particle, top of the bed, ``sleeper_z`` = mean centre
-height of the scene's rigid bodies [m]) and ``preparation.png``; ParaView snapshots every
+height of the scene's rigid bodies [m], 0 before they are placed) and ``preparation.png``; ParaView snapshots every
 run.snapshot_every steps and at the end of every stage.
 
 The ballast bodies are spheres (`add_cloud`, radius ``radius`` [m] with ``radius_spread`` [-]);
@@ -177,10 +177,11 @@ class PreparedRun(StagedRun):
         return True
 
     def sleeper_z(self, sim):
-        """Mean centre height of the rigid bodies [m] (nan before they are placed)."""
+        """Mean centre height of the rigid bodies [m] (0 before they are placed: the results hold no
+        NaN, `pdem.driver.results.finite_row`)."""
         bx = sim.boxes
         if bx is None:
-            return float("nan")
+            return 0.0
         z = 0.0
         for k in range(len(bx)):
             z += float(bx.center[k, 2])
@@ -296,7 +297,7 @@ def plot_preparation(h5_path, png_path, stages):
     s, fig, ax = series_figure(h5_path, 3, 1, (8, 8))
     t = s["time"]
     ax[0].plot(t, s["bed_top"], label="top of the ballast")
-    ax[0].plot(t, s["sleeper_z"], label="sleeper centre")
+    ax[0].plot(t, np.where(s["sleeper_z"] == 0.0, np.nan, s["sleeper_z"]), label="sleeper centre")
     ax[0].set_ylabel("height [m]")
     ax[0].legend()
     plot_energy(ax[1], t, s["kinetic_energy"])
