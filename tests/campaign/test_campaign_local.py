@@ -98,15 +98,19 @@ values = [1, 2, 3]
     assert proc.returncode == 3, text
     assert "SIGTERM received: stopping 2 running member(s)" in text
     st = states(out)
-    assert [st[n]["state"] for n in ("seed-1", "seed-2", "seed-3")] == ["stopped", "stopped", "pending"]
-    for n in ("seed-1", "seed-2"):
+    # the two running members stop (a member may just have finished its few seconds of steps when
+    # the signal came: then it is done); the third never started
+    stopped = [n for n in ("seed-1", "seed-2") if st[n]["state"] == "stopped"]
+    assert stopped and all(st[n]["state"] in ("stopped", "done") for n in ("seed-1", "seed-2"))
+    assert st["seed-3"]["state"] == "pending"
+    for n in stopped:
         assert st[n]["exit"] == 3
         ckpts = sorted((out / n / "checkpoints").glob("ckpt_*.h5"))
         assert ckpts and int(ckpts[-1].stem.split("_")[1]) < 2000
     r = pdem_campaign("run", p)
     assert r.returncode == 0, r.stdout + r.stderr
-    assert "3 to run (2 resume from a checkpoint)" in r.stdout
-    for n in ("seed-1", "seed-2"):
+    assert f"{1 + len(stopped)} to run ({len(stopped)} resume from a checkpoint)" in r.stdout
+    for n in stopped:
         assert "resuming from" in (out / n / "pdem.log").read_text()
         assert states(out)[n]["attempts"] == 2
     # the same campaign uninterrupted, in another directory
