@@ -94,6 +94,11 @@ def box_settings(doc):
     for k, allowed in CHOICES.items():
         if c[k] not in allowed:
             raise InputError(f"box_test.{k} = {c[k]!r}: must be one of {', '.join(repr(a) for a in allowed)}")
+    limit = doc.get("simulation", {}).get("max_overlap_ratio", 0.5)
+    if c["cut"] == "center" and c["sleeper_placement"] == "cut" and limit != 1.0:
+        raise InputError(f"box_test.sleeper_placement = 'cut' with cut = 'center': the sleeper starts overlapping "
+                         f"spheres by up to their radius (Yade's immediate loading), which the runaway guard stops at "
+                         f"simulation.max_overlap_ratio = {limit!r}; set it to 1.0, or sleeper_placement = 'on_top'")
     for k in ("cut_height", "height", "sleeper_mass", "frequency"):
         c[k] = number(f"box_test.{k}", c[k], 0.0, lo_open=True)
     for k in ("f_min", "f_max"):
@@ -167,7 +172,7 @@ def stage_scene(doc, c, stage, tables, load_start=None, sleeper_center=None):
     scene.add_wall("y", 0.0, c["wall_material"], sense=1, name="y_min")
     scene.add_wall("y", ly, c["wall_material"], sense=-1, name="y_max")
     if two_sided:
-        scene.add_wall("z", -catch_depth(c), c["base_material"], sense=1, name="catch")
+        scene.add_wall("z", -catch_depth(c), c["wall_material"], sense=1, name="catch")
     if STAGES.index(stage) >= STAGES.index("refill"):
         center, half = sleeper_geometry(c, c["cut_height"])
         if sleeper_center is not None:
