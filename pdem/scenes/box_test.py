@@ -126,6 +126,21 @@ def sleeper_geometry(c, bottom):
     return center, sz / 2
 
 
+def sleeper_members(size, r=0.005):
+    """Member centres [m, relative to the sleeper's centre] of the thesis's clump sleeper (5.2,
+    fig. 5.6: "one clump of 2280 spheres of radius 5 mm", the steel sleeper's shape and size):
+    spheres touching on a lattice of spacing 2r, forming a rectangular tube along y (the box's
+    width, whose walls close its ends): top and bottom plates of nx × ny spheres and two side
+    walls of ny × (nz − 2), n = size / 2r. For 250 × 300 × 150 mm: 2·25·30 + 2·30·13 = 2280
+    spheres, 9.37 kg of steel as Yade sums its members (7850 kg/m³). Geometry only: the box test
+    does not run a clump sleeper yet (docs/box_test.md)."""
+    n = [int(round(s / (2 * r))) for s in size]
+    axes = [(np.arange(k) - (k - 1) / 2.0) * 2 * r for k in n]
+    x, y, z = np.meshgrid(*axes, indexing="ij")
+    shell = (np.abs(z) == axes[2].max()) | (np.abs(x) == axes[0].max())
+    return np.stack([x[shell], y[shell], z[shell]], axis=1)
+
+
 def sleeper_on_top(c, tables):
     """Bottom height [m] of the sleeper lowered onto the spheres of ``tables``: the lowest at which
     its bottom face touches but overlaps none of them (a sphere at horizontal distance d < r from

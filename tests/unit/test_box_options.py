@@ -12,7 +12,7 @@ from pdem.driver.observables import box_face_forces
 from pdem.errors import InputError
 from pdem.loads import HalfSine, Haversine
 from pdem.scene import Scene
-from pdem.scenes.box_test import DEFAULTS, box_settings, cut, sleeper_geometry, sleeper_on_top
+from pdem.scenes.box_test import DEFAULTS, box_settings, cut, sleeper_geometry, sleeper_members, sleeper_on_top
 
 
 # ---------------------------------------------------------------------------- records
@@ -158,3 +158,17 @@ def test_defaults_are_pdem_s_choices():
     c = box_settings(DOC)
     assert (c["cut"], c["sleeper_placement"], c["refill"], c["waveform"], c["base"],
             c["vibration_friction_contacts"]) == ("top", "cut", "beside", "haversine", "one_sided", "all")
+
+
+def test_clump_sleeper_geometry_has_the_thesis_count_mass_and_size():
+    m = sleeper_members([0.25, 0.3, 0.15])
+    assert len(m) == 2280  # thesis 5.2
+    assert 2280 * 4 / 3 * pi * 0.005**3 * 7850 == pytest.approx(9.37, abs=0.005)
+    lo, hi = m.min(axis=0) - 0.005, m.max(axis=0) + 0.005
+    assert np.allclose(hi - lo, [0.25, 0.3, 0.15]) and np.allclose(lo + hi, 0.0)
+    assert len(np.unique(np.round(m, 9), axis=0)) == 2280
+    # a closed surface seen from below and from the x sides: every column under the footprint has a
+    # bottom sphere, every (y, z) row a sphere at each x end
+    bottom = m[np.isclose(m[:, 2], m[:, 2].min())]
+    assert len(bottom) == 25 * 30
+    assert len(m[np.isclose(m[:, 0], m[:, 0].min())]) == 30 * 15
