@@ -17,6 +17,14 @@ A scene file with a ``[box_test]`` table (keys and defaults in `DEFAULTS`, units
 5. ``load``     the sleeper carries a haversine force ``f_min`` ↔ ``f_max`` [N] at
                 ``frequency`` [Hz] for ``cycles`` cycles (`pdem.loads.Haversine`, pushing down).
 
+Options for what the thesis leaves open (``CHOICES``; docs/box_test.md "Options"): ``cut``
+("top" | "center"), ``sleeper_placement`` ("cut" | "on_top", `sleeper_on_top`), ``refill``
+("beside" | "whole"), ``waveform`` ("haversine" | "half_sine"), ``base`` ("one_sided" |
+"two_sided": a catch floor `catch_depth` below holds the spheres that pass, counted by
+`base_passed`), and the pipeline's ``vibration_friction_contacts`` ("all" | "new", Yade).
+Records besides the settlement: the ballast force on the sleeper's bottom face and on its sides
+(`face_forces`), per cycle the settlement at the largest force and the largest settlement.
+
 "Settle" runs until Yade's unbalanced-force ratio falls below ``settle_ratio`` (checked every
 ``check_every`` steps, not before ``settle_min_time`` [s] into the stage) or ``settle_max_time``
 [s] has passed (then a warning line is printed and the pipeline goes on). The sleeper takes the
