@@ -1,6 +1,7 @@
 """The box test's options (docs/box_test.md "Options") end to end, short: a ~200-sphere box test
 run with pdem's defaults and with the options the thesis's Yade scripts suggest, on 1 and 2
-ranks (the same bits), resumed from a stage boundary (the same bits), and each option's effect
+ranks (the same bits), resumed on 3 ranks in the middle of the vibration (the same bits), and
+each option's effect
 visible in the records.
 
 Option sets (each a few seconds per run):
@@ -186,7 +187,7 @@ def test_same_bits_on_2_ranks(runs, tmp_path, name):
 
 
 @needs_mpiexec
-def test_resume_in_the_middle_of_the_vibration_on_2_ranks(runs, tmp_path):
+def test_resume_in_the_middle_of_the_vibration_on_3_ranks(runs, tmp_path):
     """With friction lowered for new contacts only, a resume inside the vibrate stage must keep the
     tan φ every contact had (carried in the checkpoint) and lower it only for new ones."""
     d, out, scene = runs["yade"]
@@ -201,6 +202,6 @@ def test_resume_in_the_middle_of_the_vibration_on_2_ranks(runs, tmp_path):
     for s, p in list_checkpoints(res / "checkpoints"):
         if s > mid:
             p.unlink()
-    r = run_pdem(2, scene, res)
+    r = run_pdem(3, scene, res)
     assert f"at step {mid} (stage vibrate" in r.stdout and "stage vibrate (resumed)" in r.stdout
     assert_same(d, res)
