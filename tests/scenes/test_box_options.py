@@ -1,8 +1,7 @@
 """The box test's options (docs/box_test.md "Options") end to end, short: a ~200-sphere box test
 run with pdem's defaults and with the options the thesis's Yade scripts suggest, on 1 and 2
 ranks (the same bits), resumed on 3 ranks in the middle of the vibration (the same bits), and
-each option's effect
-visible in the records.
+each option's effect visible in the records.
 
 Option sets (each a few seconds per run):
 - ``yade``: friction lowered for new contacts only, cut by centre with the sleeper lowered onto
@@ -20,7 +19,7 @@ import pytest
 from pdem_cli import MPIEXEC, run_pdem
 from pdem.io.checkpoint import list_checkpoints, read_checkpoint
 
-# slow: short box tests through `pdem run` subprocesses on 1 and 2 ranks (about a minute in all)
+# slow: 3 short box tests on 1 rank, 2 on 2 ranks and a resume on 3 (4-8 min on a loaded 2-core machine)
 pytestmark = pytest.mark.slow
 
 SCENE = """[simulation]
