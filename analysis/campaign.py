@@ -59,6 +59,7 @@ class Member:
     state: str
     wall_s: float
     core_s: float
+    cpu_s: float  # CPU time its processes used [s] (NaN where the runner did not measure it)
     ranks: int
     threads: int
     _cache: dict = field(default_factory=dict, repr=False)
@@ -122,9 +123,15 @@ def read_campaign(path) -> Campaign:
         members.append(Member(name=e["name"], dir=d, params=dict(e.get("params", {})), done=done, state=state,
                               wall_s=float(sum(a["wall_s"] for a in ended)),
                               core_s=float(sum(a["core_s"] for a in ended)),
+                              cpu_s=_cpu_seconds(ended),
                               ranks=int(e.get("ranks", 1)), threads=int(e.get("threads", 1))))
     return Campaign(name=man.get("name", path.name), dir=path, manifest=man, members=members,
                     seed_key=man.get("seed_key"), varied=list(man.get("varied", [])))
+
+
+def _cpu_seconds(attempts):
+    cpu = [a.get("cpu_s") for a in attempts]
+    return float(sum(cpu)) if cpu and None not in cpu else float("nan")
 
 
 # ---------------------------------------------------------------------------- quantities

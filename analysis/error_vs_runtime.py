@@ -13,8 +13,11 @@ For each quantity (as in `analysis.campaign`, default the manifest's ``[analysis
 - noise floor: s_ref / |q_ref|, the error a single run of the reference setting itself shows
   from its seed alone; for a group of n seeds against n_ref the floor of the difference of the
   means is s_ref / |q_ref| · sqrt(1/n + 1/n_ref). An error below its floor is noise.
-- cost: the member's measured wall time (all attempts, from run.json) and core-hours (wall ×
-  ranks × threads); a group's cost is the mean over its members.
+- cost: the member's measured wall time (all attempts, from run.json) and its CPU-hours (the
+  CPU time its processes used, measured by the campaign runner; on a shared machine the cost that
+  does not depend on the load; core-hours = wall × ranks × threads where it was not measured); a
+  group's cost is the mean over its members; its speed-up is the reference's wall time over its
+  own, its cost ratio the reference's CPU-hours over its own.
 
 Writes ``error_vs_runtime.png`` (error against wall time and against core-hours, one row per
 quantity, the floor as a shaded band), ``error_vs_runtime.txt`` and ``.json`` into DIR/analysis
@@ -87,20 +90,26 @@ def error_table(groups, ref, q):
         n = int(ok.sum())
         mean = float(v[ok].mean()) if n else float("nan")
         wall = float(np.mean([m.wall_s for m in g.members]))
-        core = float(np.mean([m.core_s for m in g.members]))
+        core = float(np.mean([_cpu_or_core(m) for m in g.members]))
         rows.append({"group": g.label, "params": g.params, "reference": g is ref, "n": n, "mean": mean,
                      "error": (mean - q_ref) / abs(q_ref), "abs_error": abs(mean - q_ref) / abs(q_ref),
                      "member_errors": [abs(x - q_ref) / abs(q_ref) for x in v.tolist()],
                      "member_wall_s": [m.wall_s for m in g.members],
-                     "member_core_h": [m.core_s / 3600 for m in g.members],
+                     "member_core_h": [_cpu_or_core(m) / 3600 for m in g.members],
                      "floor": floor * sqrt(1 / max(n, 1) + 1 / len(r)) if n else float("nan"),
                      "wall_s": wall, "core_h": core / 3600, "members": [m.name for m in g.members]})
     ref_row = next(x for x in rows if x["reference"])
     for x in rows:
         x["speedup"] = ref_row["wall_s"] / x["wall_s"] if x["wall_s"] > 0 else float("nan")
+        x["cost_ratio"] = ref_row["core_h"] / x["core_h"] if x["core_h"] > 0 else float("nan")
         x["noise"] = bool(np.isfinite(x["floor"]) and x["abs_error"] <= x["floor"]) if not x["reference"] else None
     return {"quantity": q.text, "units": q.units(ref.members[0]), "q_ref": q_ref, "s_ref": s_ref, "n_ref": len(r),
             "floor": floor, "rows": rows}
+
+
+def _cpu_or_core(m):
+    """Cost of a member [s]: its measured CPU time, else wall × ranks × threads."""
+    return m.cpu_s if np.isfinite(m.cpu_s) else m.core_s
 
 
 def error_report(path, quantities, reference, out=None):
@@ -125,10 +134,23 @@ def error_report(path, quantities, reference, out=None):
         f, u = display(units[t["quantity"]])
         lines.append(f"{t['quantity']}: q_ref = {t['q_ref'] * f:.6g} {u}, s_ref = "
                      f"{t['s_ref'] * f:.4g} {u} (n_ref = {t['n_ref']}), single-run noise floor {t['floor']:.4g}")
-        head = ["group", "n", f"mean [{u}]", "error", "|error|", "floor", "noise?", "wall [s]", "core-h", "speed-up"]
+        head = [
+            "group",
+            "n",
+            f"mean [{u}]",
+            "error",
+            "|error|",
+            "floor",
+            "noise?",
+            "wall [s]",
+            "CPU-h",
+            "speed-up",
+            "cost ratio",
+        ]
         rows = [[x["group"], str(x["n"]), f"{x['mean'] * f:.6g}", f"{x['error']:+.4g}", f"{x['abs_error']:.4g}",
                  f"{x['floor']:.4g}", "reference" if x["reference"] else ("yes" if x["noise"] else "no"),
-                 f"{x['wall_s']:.1f}", f"{x['core_h']:.4f}", f"{x['speedup']:.2f}"] for x in t["rows"]]
+                 f"{x['wall_s']:.1f}", f"{x['core_h']:.4f}", f"{x['speedup']:.2f}",
+                 f"{x['cost_ratio']:.2f}"] for x in t["rows"]]
         lines += _columns(head, rows) + [""]
     (out / "error_vs_runtime.txt").write_text("\n".join(lines))
     (out / "error_vs_runtime.json").write_text(json.dumps(_finite({"campaign": camp.name, "reference": ref.params,
@@ -151,8 +173,10 @@ def plot_error_vs_runtime(path, tables, name):
         if np.isfinite(t["floor"]) and t["floor"] > 0:
             positive.append(t["floor"])
         tiny = min(positive) / 3 if positive else 1e-6  # where exact zeros are drawn on the log axis
-        for ax, cost, member_cost, label in ((row[0], "wall_s", "member_wall_s", "wall time per member [s]"),
-                                             (row[1], "core_h", "member_core_h", "core-hours per member")):
+        for ax, cost, member_cost, ratio, label in (
+            (row[0], "wall_s", "member_wall_s", "speedup", "wall time per member [s]"),
+            (row[1], "core_h", "member_core_h", "cost_ratio", "CPU-hours per member (core-hours if not measured)"),
+        ):
             ci = 0
             for x in t["rows"]:
                 errs = np.maximum(np.asarray(x["member_errors"], float), tiny)
@@ -164,7 +188,7 @@ def plot_error_vs_runtime(path, tables, name):
                 ci += 1
                 ax.plot(x[member_cost], errs, "o", color=color, ms=3, alpha=0.5)
                 ax.plot([x[cost]], [max(x["abs_error"], tiny)], "D", color=color, ms=8, label=x["group"])
-                ax.annotate(f"{x['speedup']:.1f}x", (x[cost], max(x["abs_error"], tiny)), textcoords="offset points",
+                ax.annotate(f"{x[ratio]:.1f}x", (x[cost], max(x["abs_error"], tiny)), textcoords="offset points",
                             xytext=(6, 4), fontsize=8, color=color)
             if np.isfinite(t["floor"]):
                 ax.axhline(t["floor"], color="k", ls="--", lw=1, label=f"noise floor (reference CoV {t['floor']:.3g})")

@@ -15,7 +15,9 @@ root attributes
     1-D float64 datasets of equal length (one entry per output sample), each with a ``units``
     attribute. Always ``time`` [s] and ``step`` [-]; the box test adds ``sleeper_load`` [N]
     (applied program), ``sleeper_force`` [N] (force of the ballast on the sleeper, positive
-    upward) and ``sleeper_settlement`` [m] (positive downward, zero at the start of cycling).
+    upward), ``sleeper_settlement`` [m] (positive downward, zero at the start of cycling),
+    ``sleeper_force_bottom`` and ``sleeper_force_side`` [N] (that force split: on the bottom face,
+    on the sides) and ``base_passed`` [-] (spheres below a two-sided base).
 ``/cycles`` (cyclic tests only)
     1-D float64 datasets, one entry per completed cycle: ``cycle`` [-] (1..N), ``t_start`` [s],
     ``settlement_start``, ``settlement_peak``, ``settlement_end`` [m], ``force_peak``,
@@ -125,7 +127,13 @@ CYCLE_UNITS = {
 }
 # Optional per-cycle columns pdem writes too: the extremes of the applied load and the step at
 # which the cycle was recorded.
-CYCLE_OPTIONAL_UNITS = {"load_max": "N", "load_min": "N", "step": "-"}
+# The box test adds (pdem.scenes.box_test): the settlement at the sample of the largest ballast
+# force and the largest settlement in the cycle (from the same zero as the others), the ballast
+# force on the sleeper's bottom face and on its sides (friction) at the peak sample, and the
+# spheres below a two-sided base at the cycle's end.
+CYCLE_OPTIONAL_UNITS = {"load_max": "N", "load_min": "N", "step": "-", "settlement_at_force_max": "m",
+                        "settlement_max": "m", "force_bottom_peak": "N", "force_side_peak": "N",
+                        "base_passed_end": "-"}
 
 # What pdem's runs write (pdem's driver imports these; the engine never imports analysis):
 # a plain run's energies are those of `pdem.diagnostics.energy`: kinetic_energy is translational +
@@ -137,7 +145,8 @@ RUN_SERIES = {"step": "-", "time": "s", "dt": "s", "kinetic_energy": "J", "elast
               "contacts_per_particle": "-", "unbalanced_force": "-", "bed_top": "m", "floor_force_z": "N",
               "potential_energy": "J", "total_energy": "J", "max_overlap_ratio": "-"}
 BOX_TEST_SERIES = {"step": "-", "time": "s", "dt": "s", "sleeper_load": "N", "sleeper_force": "N",
-                   "sleeper_settlement": "m", "kinetic_energy": "J", "contacts_per_particle": "-"}
+                   "sleeper_settlement": "m", "kinetic_energy": "J", "contacts_per_particle": "-",
+                   "sleeper_force_bottom": "N", "sleeper_force_side": "N", "base_passed": "-"}
 # the track section's /series (kind "track"; its per-sleeper rows are /track): total applied
 # load on the sleepers [N, down], total ballast force on them [N, up], mean settlement [m, down]
 TRACK_SERIES = {"step": "-", "time": "s", "dt": "s", "applied_load": "N", "ballast_force": "N",

@@ -8,6 +8,9 @@ A program is a small immutable spec with ``value(t)`` (t [s] since the start of 
 - `Haversine(f_min, f_max, frequency, cycles, start=0)`: for ``start ≤ t ≤ start + cycles/f``,
   F = F_min + (F_max − F_min)(1 − cos 2πf(t − start))/2 (F_min at the start and end of each
   cycle, F_max at mid-cycle); F_min before and after (thesis ch. 5, Nottingham box test).
+- `HalfSine(f_min, f_max, frequency, cycles, start=0)`: as `Haversine` with
+  F = F_min + (F_max − F_min)|sin πf(t − start)| (one positive half sine per cycle: the same
+  peaks at mid-cycle, steeper at the start and end of each cycle, no rest at F_min).
 - `Impulse(f0, duration, start=0)`: F = F_0 (1 − τ'/τ) for 0 ≤ τ' = t − start ≤ τ, else 0.
 - `AxleTrain(...)`: trains of axles passing at a constant speed over a row of sleepers (moving
   axle loads); `AxleTrain.sleeper_load(x)` is the program of the sleeper at x: the time-shifted
@@ -59,6 +62,19 @@ class Haversine:
     def spec(self):
         return {"type": "haversine", "f_min": self.f_min, "f_max": self.f_max, "frequency": self.frequency,
                 "cycles": self.cycles, "start": self.start}
+
+
+class HalfSine(Haversine):
+    """Half-sine cycles between ``f_min`` and ``f_max`` [N] at ``frequency`` [Hz] (one cycle =
+    one half period of |sin|), ``cycles`` times, starting at ``start`` [s]; F_min outside."""
+
+    def value(self, t):
+        if t <= self.start or t >= self.end:
+            return self.f_min
+        return self.f_min + (self.f_max - self.f_min) * abs(sin(pi * self.frequency * (t - self.start)))
+
+    def spec(self):
+        return {**super().spec(), "type": "half_sine"}
 
 
 class Impulse:

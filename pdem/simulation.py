@@ -297,13 +297,17 @@ class Simulation:
     def load_state(self, tables):
         return checkpoint_state.load_state(self, tables)
 
-    def set_friction_scale(self, factor):
+    def set_friction_scale(self, factor, existing=True):
         """The law's friction key of every material (and material pair) times ``factor`` [-] (the
-        linear law's friction angle, the other laws' μ), for new contacts and (Ip2 again for the
-        friction) for the existing ones: the vibration stage of the thesis (4.2) lowers friction
-        tenfold and restores it with factor 1."""
+        linear law's friction angle, the other laws' μ), for new contacts and, if ``existing``,
+        (Ip2 again for the friction) for the existing ones: the vibration stage of the thesis
+        (4.2) lowers friction tenfold and restores it with factor 1. ``existing=False`` is what
+        Yade does when a material's friction is changed: Ip2 runs once at contact creation, so
+        the existing contacts keep their tan φ until they open (YADE_MODEL.md)."""
         law = self.law
         self.props = self.materials.props(scale={law.FRICTION_KEY: factor})
+        if not existing:
+            return
         p = self.particles
         for kind in self.kinds:
             c = kind.contacts

@@ -69,6 +69,7 @@ class MemberProcess:
         self.stop_sent = None  # time of the last stop signal sent
         self.acked = False     # pdem logged that it saw the stop
         self.log_offset = 0
+        self.cpu = None        # CPU time [s] of the finished attempt's process tree
 
     @property
     def cores(self):
@@ -109,7 +110,7 @@ class MemberProcess:
         is sent again every RESEND_S seconds until the member exits."""
         if self.proc is None:
             return self._finish(127)
-        rc = self.proc.poll()
+        rc = self._wait()
         if rc is None:
             if (self.stop_sent is not None and time.monotonic() - self.stop_sent >= RESEND_S
                     and not self._acknowledged()):
@@ -126,6 +127,18 @@ class MemberProcess:
             rc = EXIT_STOPPED
         return self._finish(rc)
 
+    def _wait(self):
+        """The exit status (None while it runs); on exit, the CPU time [s] of the member's process
+        tree (user + system of it and every descendant it waited for: mpiexec, the ranks)."""
+        if self.proc.returncode is not None:
+            return self.proc.returncode
+        pid, status, usage = os.wait4(self.proc.pid, os.WNOHANG)
+        if pid == 0:
+            return None
+        self.cpu = usage.ru_utime + usage.ru_stime
+        self.proc.returncode = os.waitstatus_to_exitcode(status)
+        return self.proc.returncode
+
     def _acknowledged(self):
         if not self.acked:
             with open(self.dir / LOG, errors="replace") as fh:
@@ -137,7 +150,7 @@ class MemberProcess:
         wall = time.perf_counter() - self.t0
         self.log.write(f"pdem campaign: exit status {rc} after {wall:.1f} s\n")
         self.log.close()
-        end_attempt(self.dir, self.rec, rc, wall)
+        end_attempt(self.dir, self.rec, rc, wall, self.cpu)
         self.lock.close()
         self.status, self.wall = rc, wall
         return rc
@@ -145,7 +158,7 @@ class MemberProcess:
     def stop(self, signum=signal.SIGTERM):
         """Ask the member to checkpoint and stop (SIGTERM to its process group)."""
         self.stop_sent = time.monotonic()
-        if self.proc is not None and self.proc.poll() is None:
+        if self.proc is not None and self.proc.returncode is None:
             try:
                 os.killpg(self.proc.pid, signum)
             except ProcessLookupError:

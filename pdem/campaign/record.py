@@ -2,8 +2,9 @@
 
 Owns the run record and the states of `STATES`. ``run.json`` holds one entry per attempt
 (``start``, ``end`` (ISO times, ``end`` null while it runs), ``wall_s``, ``exit``, ``ranks``,
-``threads``, ``core_s`` = wall × ranks × threads, ``host``, ``launcher``, ``slurm_job``) and the
-totals over attempts (``wall_s``, ``core_s``, the last ``exit``), which the error-vs-runtime
+``threads``, ``core_s`` = wall × ranks × threads, ``cpu_s`` = the CPU time its processes used,
+``host``, ``launcher``, ``slurm_job``) and the totals over attempts (``wall_s``, ``core_s``,
+``cpu_s``, the last ``exit``), which the error-vs-runtime
 report reads as the member's cost. A member being run holds an exclusive `flock` on
 ``<member>/.lock`` (inherited by its processes), so any process can tell that it is running.
 
@@ -43,6 +44,8 @@ def _totals(rec):
     ended = [a for a in rec["attempts"] if a.get("end")]
     rec["wall_s"] = sum(a["wall_s"] for a in ended)
     rec["core_s"] = sum(a["core_s"] for a in ended)
+    cpu = [a.get("cpu_s") for a in ended]
+    rec["cpu_s"] = sum(cpu) if cpu and None not in cpu else None
     rec["exit"] = rec["attempts"][-1].get("exit") if rec["attempts"] else None
     return rec
 
@@ -63,11 +66,14 @@ def start_attempt(d, name, ranks, threads, launcher):
     return rec
 
 
-def end_attempt(d, rec, exit_status, wall_s):
-    """Record the end of the last attempt (exit status, wall time [s], core-seconds)."""
+def end_attempt(d, rec, exit_status, wall_s, cpu_s=None):
+    """Record the end of the last attempt (exit status, wall time [s], core-seconds allocated and,
+    if measured, the CPU seconds used by its processes: on a shared machine the cost that does not
+    depend on the load)."""
     a = rec["attempts"][-1]
     a.update(end=now(), exit=int(exit_status), wall_s=round(float(wall_s), 3),
-             core_s=round(float(wall_s) * a["ranks"] * a["threads"], 3))
+             core_s=round(float(wall_s) * a["ranks"] * a["threads"], 3),
+             cpu_s=None if cpu_s is None else round(float(cpu_s), 3))
     write_text_if_changed(Path(d) / RUN, json_text(_totals(rec)))
     return rec
 

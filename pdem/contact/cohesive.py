@@ -34,7 +34,7 @@ from math import sqrt, tan
 import numpy as np
 from numba import njit
 
-from ..vec import cross3, dot3
+from ..vec import dot3, scgeom_rotate
 
 NAME = "cohesive"
 N_PARAMS = 3
@@ -102,17 +102,7 @@ def force(p, fresh, nx, ny, nz, pen, vn, six, siy, siz, ox, oy, oz, tx, ty, tz, 
         fsy = 0.0
         fsz = 0.0
     else:
-        fsx = history[p, 0]
-        fsy = history[p, 1]
-        fsz = history[p, 2]
-        cx, cy, cz = cross3(fsx, fsy, fsz, ox, oy, oz)
-        fsx -= cx
-        fsy -= cy
-        fsz -= cz
-        cx, cy, cz = cross3(fsx, fsy, fsz, tx, ty, tz)
-        fsx -= cx
-        fsy -= cy
-        fsz -= cz
+        fsx, fsy, fsz = scgeom_rotate(history[p, 0], history[p, 1], history[p, 2], ox, oy, oz, tx, ty, tz)
     fsx -= ks * six
     fsy -= ks * siy
     fsz -= ks * siz

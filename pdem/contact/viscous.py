@@ -39,7 +39,7 @@ from math import inf, sqrt
 import numpy as np
 from numba import njit
 
-from ..vec import cross3, dot3
+from ..vec import cross3, dot3, scgeom_rotate
 
 NAME = "viscous"
 N_PARAMS = 8
@@ -120,17 +120,7 @@ def force(p, fresh, nx, ny, nz, pen, vn, six, siy, siz, ox, oy, oz, tx, ty, tz, 
         mrx = mry = mrz = 0.0
         mt = 0.0
     else:
-        fsx = history[p, 0]
-        fsy = history[p, 1]
-        fsz = history[p, 2]
-        cx, cy, cz = cross3(fsx, fsy, fsz, ox, oy, oz)
-        fsx -= cx
-        fsy -= cy
-        fsz -= cz
-        cx, cy, cz = cross3(fsx, fsy, fsz, tx, ty, tz)
-        fsx -= cx
-        fsy -= cy
-        fsz -= cz
+        fsx, fsy, fsz = scgeom_rotate(history[p, 0], history[p, 1], history[p, 2], ox, oy, oz, tx, ty, tz)
         mrx = history[p, 3]
         mry = history[p, 4]
         mrz = history[p, 5]

@@ -6,8 +6,13 @@ every step or every few steps from the run driver (`CycleRecorder.sample_box(sim
 from a simulation). For each cycle k of a `pdem.loads.Haversine` program (start t_k = start + k/f,
 peak t_k + 1/(2f), end t_k + 1/f) it records, from the first sample at or after each instant:
 the settlement at the start, at the peak and at the end, and over the samples in [t_k, t_k+1):
-the largest and smallest force of the spheres on the box and of the applied load. A record is
-complete (appended to ``records``) at the first sample at or after the end of its cycle.
+the largest and smallest force of the spheres on the box and of the applied load, the
+settlement at the sample of the largest force (``settlement_at_force_max``) and the largest
+settlement (``settlement_max``). A record is complete (appended to ``records``) at the first
+sample at or after the end of its cycle. All settlements of a recorder are measured from the
+same zero (``reference``). A caller may pass ``split`` (a dict of extra values, e.g. the force
+on the box's bottom face and on its sides) with the peak sample (`CycleRecorder.at_peak` says
+which one it is): it is stored in the record as ``<name>_peak``.
 
 Settlement [m] is the displacement of the box centre along the load direction since a
 reference position (positive = moving with the load, e.g. down for a sleeper); force [N] is the
@@ -16,7 +21,7 @@ ballast reaction along −direction (positive when the ballast pushes back). Imp
 import numpy as np
 
 FIELDS = ("cycle", "t_start", "settlement_start", "settlement_peak", "settlement_end", "force_max", "force_min",
-          "load_max", "load_min", "n_samples")
+          "load_max", "load_min", "n_samples", "settlement_at_force_max", "settlement_max")
 
 
 class CycleRecorder:
@@ -39,10 +44,20 @@ class CycleRecorder:
     def _new(self, k):
         return {"cycle": k, "t_start": self._times(k)[0], "settlement_start": np.nan, "settlement_peak": np.nan,
                 "settlement_end": np.nan, "force_max": -np.inf, "force_min": np.inf, "load_max": -np.inf,
-                "load_min": np.inf, "n_samples": 0}
+                "load_min": np.inf, "n_samples": 0, "settlement_at_force_max": np.nan, "settlement_max": -np.inf}
 
-    def sample(self, t, settlement, force, load=np.nan):
-        """Add one sample; returns the record of a cycle this sample completed, else None."""
+    def at_peak(self, t):
+        """Whether a sample at time t will be the peak sample of the open cycle (the first at or
+        after its peak instant): the moment to pass ``split`` to `sample`."""
+        if self._k >= self.cycles:
+            return False
+        t0, tp, t1 = self._times(self._k)
+        rec = self._open
+        return tp <= t < t1 and (rec is None or np.isnan(rec["settlement_peak"]))
+
+    def sample(self, t, settlement, force, load=np.nan, split=None):
+        """Add one sample; returns the record of a cycle this sample completed, else None.
+        ``split``: extra values of the peak sample (see the module docstring)."""
         done = None
         while self._k < self.cycles:
             t0, tp, t1 = self._times(self._k)
@@ -65,7 +80,12 @@ class CycleRecorder:
                 rec["settlement_start"] = settlement
             if t >= tp and np.isnan(rec["settlement_peak"]):
                 rec["settlement_peak"] = settlement
+                for name, value in (split or {}).items():
+                    rec[f"{name}_peak"] = float(value)
+            if force > rec["force_max"]:
+                rec["settlement_at_force_max"] = settlement
             rec["force_max"] = max(rec["force_max"], force)
+            rec["settlement_max"] = max(rec["settlement_max"], settlement)
             rec["force_min"] = min(rec["force_min"], force)
             if not np.isnan(load):
                 rec["load_max"] = max(rec["load_max"], load)
@@ -74,7 +94,7 @@ class CycleRecorder:
             return done
         return done
 
-    def sample_box(self, sim, box=0):
+    def sample_box(self, sim, box=0, split=None):
         """Sample box `box` of a simulation: settlement from the centre at the first call, force of
         the spheres on the box and applied load, both projected on the load direction."""
         bx = sim.boxes
@@ -84,11 +104,13 @@ class CycleRecorder:
         settlement = float((bx.center[box] - self.reference) @ d)
         force = float(-(bx.contact_force[box] @ d))
         load = float(bx.load_force[box] @ d)
-        return self.sample(sim.time, settlement, force, load)
+        return self.sample(sim.time, settlement, force, load, split)
 
     def table(self):
-        """The completed records as a dict of numpy columns (``FIELDS``)."""
-        return {k: np.array([r[k] for r in self.records]) for k in FIELDS}
+        """The completed records as a dict of numpy columns (``FIELDS`` and the ``split`` names
+        given, nan in a record without them)."""
+        names = list(FIELDS) + sorted({k for r in self.records for k in r} - set(FIELDS))
+        return {k: np.array([r.get(k, np.nan) for r in self.records], np.float64) for k in names}
 
     def state(self):
         """JSON-able state for a checkpoint (``restore`` is its inverse)."""
@@ -97,7 +119,8 @@ class CycleRecorder:
 
     def restore(self, state):
         self._k = int(state["k"])
-        self._open = state["open"]
-        self.records = list(state["records"])
+        blank = self._new(0)  # records of a checkpoint written before a field existed get nan
+        self._open = None if state["open"] is None else {**blank, "settlement_max": np.nan, **state["open"]}
+        self.records = [{**blank, "settlement_max": np.nan, **r} for r in state["records"]]
         self.reference = None if state["reference"] is None else np.asarray(state["reference"], np.float64)
         return self

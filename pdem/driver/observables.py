@@ -6,7 +6,8 @@ the rank count (exact sums, max/min reductions).
 - wall forces: total force of the spheres on each wall [N] (exact sums over contacts)
 - top of the bed: max over spheres of z + r [m]
 - the largest overlap of any real contact over the smaller radius of its pair [-]
-- rigid boxes: force of the spheres on each box [N] (exact sums) and centre [m]
+- rigid boxes: force of the spheres on each box [N] (exact sums) and centre [m]; the force on a
+  box's bottom face apart from the rest (side friction)
 """
 import numpy as np
 
@@ -61,6 +62,24 @@ def box_forces(sim):
     if sim.boxes is None:
         return np.zeros((0, 3))
     return sim.boxes.contact_force.copy()
+
+
+def box_face_forces(sim, box=0):
+    """(bottom, sides) [N, 3 each]: the force of the spheres on box ``box`` split by where they
+    touch it: ``bottom`` from the spheres whose centre is below the box's bottom plane (its bottom
+    face and bottom edges), ``sides`` from all others (its vertical faces: for a sleeper pushed
+    down, their z part is the side friction). Exact sums over all ranks (collective); their sum
+    is `box_forces` up to the rounding of one addition."""
+    kind = sim.kind("sphere_box")
+    if kind is None:
+        return np.zeros(3), np.zeros(3)
+    c, p = kind.contacts, sim.particles
+    rows = c.real_rows()
+    rows = rows[c.j[rows] == box]
+    bottom = sim.boxes.center[box, 2] - sim.boxes.half[box, 2]
+    side = (p.pos[c.i[rows], 2] >= bottom).astype(np.int64)
+    sums = sim.comm.exact_sum_groups(-c.force[rows], side, 2)
+    return sums[0], sums[1]
 
 
 def box_positions(sim):

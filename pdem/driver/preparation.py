@@ -12,7 +12,10 @@ Stages (`PREPARATION_STAGES`), then the scene's own loading stages:
                 stage on) and may pour more clouds beside them; settle.
 3. ``vibrate``  ``trim(tables)``: the scene removes what sticks out of the final shape; then
                 shake for ``vibration_time`` [s] with every friction angle times
-                ``vibration_friction_factor`` (thesis 4.2: tenfold lower): in the frame of the
+                ``vibration_friction_factor`` (thesis 4.2: tenfold lower; with
+                ``vibration_friction_contacts`` = "new" only for the contacts made while
+                vibrating, as in Yade, where a contact keeps the tan φ of its creation until it
+                opens, on lowering and on restoring alike): in the frame of the
                 mould, shaking is the pseudo-acceleration A·(sin 2πft, cos 2πft, 0) added to
                 gravity, A = ``vibration_acceleration`` [m/s²], f = ``vibration_frequency``
                 [Hz]; rigid bodies feel it too. Friction is then restored.
@@ -60,7 +63,9 @@ PREPARATION_DEFAULTS = {
     "settle_ratio": 0.01, "settle_min_time": 0.2, "settle_max_time": 3.0, "check_every": 200,
     "vibration_time": 0.5, "vibration_frequency": 10.0, "vibration_acceleration": 5.0,
     "vibration_friction_factor": 0.1,
+    "vibration_friction_contacts": "all",  # "all": existing contacts too (Ip2 redone); "new": Yade's way
 }
+FRICTION_CONTACTS = ("all", "new")
 
 
 # ---------------------------------------------------------------------------- settings
@@ -74,6 +79,9 @@ def check_preparation(name, c):
     c["seed"] = number(f"{name}.seed", c["seed"], 0, integer=True)
     c["check_every"] = number(f"{name}.check_every", c["check_every"], 1, integer=True)
     c["radius_spread"] = number(f"{name}.radius_spread", c["radius_spread"], 0.0, 1.0, hi_open=True, allow="in [0, 1)")
+    if c["vibration_friction_contacts"] not in FRICTION_CONTACTS:
+        raise InputError(f"{name}.vibration_friction_contacts = {c['vibration_friction_contacts']!r}: must be "
+                         "'all' (every contact's friction changed) or 'new' (only contacts made afterwards, as Yade)")
     c["vibration_friction_factor"] = number(f"{name}.vibration_friction_factor", c["vibration_friction_factor"], 0.0,
                                             1.0, lo_open=True, allow="in (0, 1]")
     return c
@@ -212,7 +220,7 @@ class PreparedRun(StagedRun):
     def prepare(self, stage, sim, scene, mid_stage):
         if stage == "vibrate":
             c = self.c
-            sim.set_friction_scale(c["vibration_friction_factor"])
+            sim.set_friction_scale(c["vibration_friction_factor"], existing=c["vibration_friction_contacts"] == "all")
             g = np.asarray(scene.settings["gravity"], np.float64)
             sim.gravity = g + shaking(c, sim.time - self.state["stage_t0"])
             sim.moving_boundaries = True  # the shaking does external work: no energy-growth check
@@ -279,7 +287,7 @@ class PreparedRun(StagedRun):
             log(f"warning: stage {stage} reached settle_max_time = {c['settle_max_time']} s with the rigid bodies "
                 "not at rest; going on")
         if stage == "vibrate":
-            sim.set_friction_scale(1.0)
+            sim.set_friction_scale(1.0, existing=c["vibration_friction_contacts"] == "all")
         top = observables.bed_top(sim)
         log(f"stage {stage} done at t = {sim.time:.4f} s, step {sim.step}: unbalanced force ratio {ratio:.3g}, "
             f"bed top {top:.4f} m" + self.bodies_note(sim))

@@ -267,7 +267,8 @@ def prep_sample(sim, stage_index):
         "unbalanced_force": observables.unbalanced_force(sim),
         "contacts_per_particle": sim.contacts_per_particle(),
         "bed_top": observables.bed_top(sim),
-        "sleeper_z": float(sim.boxes.center[0, 2]) if sim.boxes is not None else float("nan"),
+        # the plate's centre height, 0 before the plate is placed (results hold no NaN)
+        "sleeper_z": float(sim.boxes.center[0, 2]) if sim.boxes is not None else 0.0,
     }
 
 
@@ -552,7 +553,7 @@ def plot_preparation(h5_path, png_path):
     s, fig, ax = series_figure(h5_path, 3, 1, (8, 8))
     t = s["time"]
     ax[0].plot(t, s["bed_top"], ".", ms=2, label="top of the layer")
-    ax[0].plot(t, s["sleeper_z"], ".", ms=2, label="plate centre")
+    ax[0].plot(t, np.where(s["sleeper_z"] == 0.0, np.nan, s["sleeper_z"]), ".", ms=2, label="plate centre")
     ax[0].set_ylabel("height [m]")
     ax[0].legend()
     plot_energy(ax[1], t, s["kinetic_energy"])

@@ -17,6 +17,14 @@ A scene file with a ``[box_test]`` table (keys and defaults in `DEFAULTS`, units
 5. ``load``     the sleeper carries a haversine force ``f_min`` ↔ ``f_max`` [N] at
                 ``frequency`` [Hz] for ``cycles`` cycles (`pdem.loads.Haversine`, pushing down).
 
+Options for what the thesis leaves open (``CHOICES``; docs/box_test.md "Options"): ``cut``
+("top" | "center"), ``sleeper_placement`` ("cut" | "on_top", `sleeper_on_top`), ``refill``
+("beside" | "whole"), ``waveform`` ("haversine" | "half_sine"), ``base`` ("one_sided" |
+"two_sided": a catch floor `catch_depth` below holds the spheres that pass, counted by
+`base_passed`), and the pipeline's ``vibration_friction_contacts`` ("all" | "new", Yade).
+Records besides the settlement: the ballast force on the sleeper's bottom face and on its sides
+(`face_forces`), per cycle the settlement at the largest force and the largest settlement.
+
 "Settle" runs until Yade's unbalanced-force ratio falls below ``settle_ratio`` (checked every
 ``check_every`` steps, not before ``settle_min_time`` [s] into the stage) or ``settle_max_time``
 [s] has passed (then a warning line is printed and the pipeline goes on). The sleeper takes the
@@ -42,7 +50,9 @@ from ..driver.preparation import PREPARATION_DEFAULTS, PREPARATION_STAGES, Prepa
 from ..driver.results import series_writer, write_cycles, write_root_attrs
 from ..driver.stages import check_no_steps, empty_tables, remove_above
 from ..errors import InputError
-from ..loads import Haversine
+from ..driver.observables import box_face_forces
+from ..driver.preparation import remove_where
+from ..loads import HalfSine, Haversine
 from ..validate import number
 
 STAGES = PREPARATION_STAGES + ("load",)
@@ -59,7 +69,17 @@ DEFAULTS = {
     "sleeper_size": [0.25, 0.3, 0.15],  # [m]
     "sleeper_mass": 34.0,               # [kg]
     "f_min": 3000.0, "f_max": 40000.0, "frequency": 1.0, "cycles": 10,
+    # options for what the thesis leaves open or pdem chose differently (docs/box_test.md, "Options")
+    "cut": "top",                 # "top": cut the spheres whose top is above a cut; "center": whose centre is (Yade)
+    "sleeper_placement": "cut",   # "cut": sleeper bottom at cut_height, overlaps loaded at once (Yade); "on_top":
+                                  # lowered onto the spheres the cut leaves (touching, no overlap)
+    "refill": "beside",           # "beside": clouds beside the sleeper; "whole": one cloud over the whole box
+    "waveform": "haversine",      # "haversine" or "half_sine" (pdem.loads)
+    "base": "one_sided",          # "one_sided" or "two_sided" (grains may pass through; counted)
 }
+CHOICES = {"cut": ("top", "center"), "sleeper_placement": ("cut", "on_top"), "refill": ("beside", "whole"),
+           "waveform": ("haversine", "half_sine"), "base": ("one_sided", "two_sided")}
+WAVEFORMS = {"haversine": Haversine, "half_sine": HalfSine}
 WHERE = ("box_test", "beside the sleeper")
 
 
@@ -79,6 +99,14 @@ def box_settings(doc):
         if not isinstance(c[k], str) or c[k] not in doc.get("materials", {}):
             raise InputError(f"box_test.{k} = {c[k]!r}: no [materials.{c[k]}] table in the scene file")
     check_preparation("box_test", c)
+    for k, allowed in CHOICES.items():
+        if c[k] not in allowed:
+            raise InputError(f"box_test.{k} = {c[k]!r}: must be one of {', '.join(repr(a) for a in allowed)}")
+    limit = doc.get("simulation", {}).get("max_overlap_ratio", 0.5)
+    if c["cut"] == "center" and c["sleeper_placement"] == "cut" and limit != 1.0:
+        raise InputError(f"box_test.sleeper_placement = 'cut' with cut = 'center': the sleeper starts overlapping "
+                         f"spheres by up to their radius (Yade's immediate loading), which the runaway guard stops at "
+                         f"simulation.max_overlap_ratio = {limit!r}; set it to 1.0, or sleeper_placement = 'on_top'")
     for k in ("cut_height", "height", "sleeper_mass", "frequency"):
         c[k] = number(f"box_test.{k}", c[k], 0.0, lo_open=True)
     for k in ("f_min", "f_max"):
@@ -106,25 +134,74 @@ def sleeper_geometry(c, bottom):
     return center, sz / 2
 
 
+def sleeper_members(size, r=0.005):
+    """Member centres [m, relative to the sleeper's centre] of the thesis's clump sleeper (5.2,
+    fig. 5.6: "one clump of 2280 spheres of radius 5 mm", the steel sleeper's shape and size):
+    spheres touching on a lattice of spacing 2r, forming a rectangular tube along y (the box's
+    width, whose walls close its ends): top and bottom plates of nx × ny spheres and two side
+    walls of ny × (nz − 2), n = size / 2r. For 250 × 300 × 150 mm: 2·25·30 + 2·30·13 = 2280
+    spheres, 9.37 kg of steel as Yade sums its members (7850 kg/m³). Geometry only: the box test
+    does not run a clump sleeper yet (docs/box_test.md)."""
+    n = [int(round(s / (2 * r))) for s in size]
+    axes = [(np.arange(k) - (k - 1) / 2.0) * 2 * r for k in n]
+    x, y, z = np.meshgrid(*axes, indexing="ij")
+    shell = (np.abs(z) == axes[2].max()) | (np.abs(x) == axes[0].max())
+    return np.stack([x[shell], y[shell], z[shell]], axis=1)
+
+
+def sleeper_on_top(c, tables):
+    """Bottom height [m] of the sleeper lowered onto the spheres of ``tables``: the lowest at which
+    its bottom face touches but overlaps none of them (a sphere at horizontal distance d < r from
+    the footprint holds it at z + sqrt(r² − d²)); 0 if none lies under it."""
+    center, half = sleeper_geometry(c, 0.0)
+    p = tables["particles"]
+    pos, r = p["pos"], p["radius"]
+    dx = np.maximum(np.abs(pos[:, 0] - center[0]) - half[0], 0.0)
+    dy = np.maximum(np.abs(pos[:, 1] - center[1]) - half[1], 0.0)
+    d2 = dx * dx + dy * dy
+    under = d2 < r * r
+    return float(np.max(pos[under, 2] + np.sqrt(r[under] ** 2 - d2[under]), initial=0.0))
+
+
+def cut(c, tables, height):
+    """(tables, removed): the spheres above ``height`` [m] removed, by their top (``cut`` = "top",
+    `remove_above`) or by their centre (``cut`` = "center", as a Yade script that deletes the
+    bodies with pos z > height)."""
+    if c["cut"] == "center":
+        return remove_where(tables, lambda pos, radius: pos[:, 2] > height)
+    return remove_above(tables, height)
+
+
+def catch_depth(c):
+    """Depth [m] below the base of the floor that catches the spheres passing a two-sided base
+    (4 largest radii: a sphere resting on it is clear of the base)."""
+    return 4.0 * c["radius"] * (1.0 + c["radius_spread"])
+
+
 # ---------------------------------------------------------------------------- stage scenes
 def stage_scene(doc, c, stage, tables, load_start=None, sleeper_center=None):
     """The `Scene` of ``stage`` holding the spheres of ``tables``: materials and settings of
-    the file, the box's five walls, the sleeper from stage ``refill`` on (loaded in ``load``)."""
+    the file, the box's five walls, the sleeper from stage ``refill`` on (loaded in ``load``).
+    With ``base`` = "two_sided" the base acts on both sides (Yade's wall sense 0) and a sixth
+    wall ``catch`` at `catch_depth` below it holds the spheres that passed through."""
     base = {k: v for k, v in doc.items() if k in ("simulation", "materials")}
     base["simulation"] = {**base.get("simulation", {}), "allow_initial_overlap": True}
     scene = scene_from_dict(base)
     lx, ly, _ = c["box"]
-    scene.add_wall("z", 0.0, c["base_material"], sense=1, name="base")
+    two_sided = c["base"] == "two_sided"
+    scene.add_wall("z", 0.0, c["base_material"], sense=0 if two_sided else 1, name="base")
     scene.add_wall("x", 0.0, c["wall_material"], sense=1, name="x_min")
     scene.add_wall("x", lx, c["wall_material"], sense=-1, name="x_max")
     scene.add_wall("y", 0.0, c["wall_material"], sense=1, name="y_min")
     scene.add_wall("y", ly, c["wall_material"], sense=-1, name="y_max")
+    if two_sided:
+        scene.add_wall("z", -catch_depth(c), c["wall_material"], sense=1, name="catch")
     if STAGES.index(stage) >= STAGES.index("refill"):
         center, half = sleeper_geometry(c, c["cut_height"])
         if sleeper_center is not None:
             center = np.asarray(sleeper_center, float)
-        load = (Haversine(c["f_min"], c["f_max"], c["frequency"], c["cycles"], start=load_start,
-                          label="box_test") if stage == "load" else None)
+        load = (WAVEFORMS[c["waveform"]](c["f_min"], c["f_max"], c["frequency"], c["cycles"], start=load_start,
+                                         label="box_test") if stage == "load" else None)
         scene.add_box(center, half, c["sleeper_material"], c["sleeper_mass"], blocked="xyXYZ", load=load,
                       damping=scene.settings["damping"], name="sleeper")
     scene.add_sphere_columns(tables["particles"])
@@ -132,16 +209,36 @@ def stage_scene(doc, c, stage, tables, load_start=None, sleeper_center=None):
 
 
 # ---------------------------------------------------------------------------- records
+def face_forces(sim):
+    """{"force_bottom", "force_side"}: the ballast force on the sleeper's bottom face and on its
+    sides (friction) [N, along the load direction, positive against it] (collective)."""
+    d = sim.boxes.direction[0]
+    bottom, side = box_face_forces(sim, 0)
+    return {"force_bottom": float(-(bottom @ d)), "force_side": float(-(side @ d))}
+
+
+def base_passed(sim):
+    """Spheres whose centre is below the base plane z = 0 (passed through a two-sided base)."""
+    p = sim.particles
+    return sim.comm.allreduce_sum_int(int(np.count_nonzero(p.pos[: p.n_local, 2] < 0.0)))
+
+
 def load_sample(sim, reference, load=None):
     """A row of the load record; ``reference`` is the sleeper centre where cycling started."""
     e = sim.energy()
     bx = sim.boxes
     d = bx.direction[0]
+    faces = face_forces(sim)
     return {"step": sim.step, "time": sim.time, "dt": sim.dt,
             "sleeper_load": float(bx.load_force[0] @ d) if load is None else float(load),
             "sleeper_force": float(-(bx.contact_force[0] @ d)),
+            "sleeper_force_bottom": faces["force_bottom"], "sleeper_force_side": faces["force_side"],
+            "base_passed": float(base_passed(sim)),
             "sleeper_settlement": float((bx.center[0] - reference) @ d),
             "kinetic_energy": e["kinetic"] + e["rotational"], "contacts_per_particle": sim.contacts_per_particle()}
+
+
+CYCLE_EXTRA = ("settlement_at_force_max", "settlement_max", "force_bottom_peak", "force_side_peak", "base_passed_end")
 
 
 def cycle_columns(recorder):
@@ -150,7 +247,8 @@ def cycle_columns(recorder):
     return {"cycle": t["cycle"] + 1.0, "t_start": t["t_start"], "settlement_start": t["settlement_start"],
             "settlement_peak": t["settlement_peak"], "settlement_end": t["settlement_end"],
             "force_peak": t["force_max"], "force_min": t["force_min"], "load_max": t["load_max"],
-            "load_min": t["load_min"], "step": np.array([r.get("step", 0) for r in recorder.records], np.float64)}
+            "load_min": t["load_min"], "step": np.array([r.get("step", 0) for r in recorder.records], np.float64),
+            **{k: t.get(k, np.full(len(t["cycle"]), np.nan)) for k in CYCLE_EXTRA}}
 
 
 # ---------------------------------------------------------------------------- the run
@@ -212,23 +310,31 @@ class BoxTestRun(PreparedRun):
         c, doc = self.c, self.doc
         lx, ly, _ = c["box"]
         h1, h2 = c["cut_height"], c["height"]
-        tables, removed = remove_above(tables, h1)
-        center, half = sleeper_geometry(c, h1)
+        tables, removed = cut(c, tables, h1)
+        bottom = sleeper_on_top(c, tables) if c["sleeper_placement"] == "on_top" else h1
+        self.state["sleeper_bottom"] = bottom
+        center, half = sleeper_geometry(c, bottom)
         x0, x1 = center[0] - half[0], center[0] + half[0]
         gid = self.state["next_gid"]
         n0 = len(tables["particles"]["gid"])
-        for k, (a, b) in enumerate(((0.0, x0), (x1, lx))):
-            if b - a <= 0:
-                continue
-            tables = add_cloud(tables, doc, c, (a, 0.0), (b, ly), h1, (b - a) * ly * (h2 - h1), c["seed"] + 1000 + k,
-                               gid, WHERE)
-            gid = int(tables["particles"]["gid"].max()) + 1
-        return tables, (f"removed {removed} spheres above {h1} m, placed the sleeper, poured "
-                        f"{len(tables['particles']['gid']) - n0} spheres beside it")
+        if c["refill"] == "whole":  # one cloud over the whole box, from the sleeper's top up
+            tables = add_cloud(tables, doc, c, (0.0, 0.0), (lx, ly), center[2] + half[2], lx * ly * (h2 - h1),
+                               c["seed"] + 1000, gid, ("box_test", "in the box"))
+            where = "over the whole box"
+        else:
+            for k, (a, b) in enumerate(((0.0, x0), (x1, lx))):
+                if b - a <= 0:
+                    continue
+                tables = add_cloud(tables, doc, c, (a, 0.0), (b, ly), h1, (b - a) * ly * (h2 - h1),
+                                   c["seed"] + 1000 + k, gid, WHERE)
+                gid = int(tables["particles"]["gid"].max()) + 1
+            where = "beside it"
+        return tables, (f"removed {removed} spheres above {h1} m, placed the sleeper (bottom {bottom:.4f} m), poured "
+                        f"{len(tables['particles']['gid']) - n0} spheres {where}")
 
     def trim(self, tables):
         h2 = self.c["height"]
-        tables, removed = remove_above(tables, h2)
+        tables, removed = cut(self.c, tables, h2)
         return tables, f"removed {removed} spheres above {h2} m"
 
     def open_load_stage(self, stage, tables):
@@ -237,7 +343,15 @@ class BoxTestRun(PreparedRun):
 
     def stage_scene(self, stage, tables):
         center = tables["boxes"]["center"][0] if "boxes" in tables else None
+        if center is None and self.state.get("sleeper_bottom") is not None:
+            center = sleeper_geometry(self.c, self.state["sleeper_bottom"])[0]
         return stage_scene(self.doc, self.c, stage, tables, self.state["load_start"], center)
+
+    def prepare(self, stage, sim, scene, mid_stage):
+        super().prepare(stage, sim, scene, mid_stage)
+        if self.c["base"] == "two_sided":  # a sphere may pass the base: no domain check there, and a sphere
+            sim.guard.wall_side[sim.wall_index("base")] = 0  # on the plane overlaps it by its radius (ratio 1)
+            sim.max_overlap_ratio = max(sim.max_overlap_ratio, 1.0)
 
     def bodies_note(self, sim):
         return "" if sim.boxes is None else f", sleeper bottom {sim.boxes.center[0, 2] - sim.boxes.half[0, 2]:.4f} m"
@@ -252,9 +366,10 @@ class BoxTestRun(PreparedRun):
             rec.reference = sim.boxes.center[0].copy()
 
         def on_step(sim):
-            done = rec.sample_box(sim, 0)
+            done = rec.sample_box(sim, 0, split=face_forces(sim) if rec.at_peak(sim.time) else None)
             if done is not None:
                 done["step"] = sim.step
+                done["base_passed_end"] = float(base_passed(sim))
                 write_cycles(self.results, cycle_columns(rec), self.comm)
                 self.loop.log(f"cycle {done['cycle'] + 1}/{c['cycles']}: settlement start "
                               f"{1e3 * done['settlement_start']:.3f} mm, peak {1e3 * done['settlement_peak']:.3f} mm, "

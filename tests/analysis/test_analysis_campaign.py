@@ -180,6 +180,8 @@ def test_error_against_run_time_known_answers(tmp_path):
     assert fast["floor"] == pytest.approx(np.sqrt(1 / 2 + 1 / 3) / 11) and fast["noise"] is False
     assert close["abs_error"] == pytest.approx(0.5 / 11) and close["noise"] is True and close["speedup"] == 5.0
     assert close["core_h"] == pytest.approx(20 / 3600)
+    # no CPU time measured in these records: the cost is wall x ranks x threads (reference on 2 ranks)
+    assert fast["cost_ratio"] == pytest.approx(20.0) and close["cost_ratio"] == pytest.approx(10.0)
     assert ref["member_errors"] == pytest.approx([1 / 11, 0, 1 / 11])
     text = (root / "analysis" / "error_vs_runtime.txt").read_text()
     assert "q_ref = 11 mm" in text and "10.00" in text

@@ -46,6 +46,8 @@ name = "b"
         rec = json.loads((out / name / "run.json").read_text())
         assert rec["exit"] == 0 and rec["attempts"][0]["ranks"] == 1 and rec["attempts"][0]["threads"] == 1
         assert rec["wall_s"] > 0 and rec["core_s"] == rec["wall_s"]
+        # the CPU time of the member's process, measured by the runner: one process, one thread
+        assert 0 < rec["cpu_s"] <= 1.1 * rec["wall_s"] + 0.5
         with h5py.File(out / name / "results.h5") as f:
             assert f["series"]["step"][-1] == 400
     # again: nothing to run (done skipped, failed skipped); with --retry-failed the failed one runs again
@@ -56,8 +58,9 @@ name = "b"
     assert r3.returncode == 1 and states(out)["bad"]["attempts"] == 2 and states(out)["a"]["attempts"] == 1
 
 
-def wait_for_steps(logs, proc, timeout=120):
-    """Until every log shows a progress line of pdem's step loop (its signal handlers are in)."""
+def wait_for_steps(logs, proc, timeout=600):
+    """Until every log shows a progress line of pdem's step loop (its signal handlers are in); the first
+    members compile the kernels (minutes on a fresh numba cache of a loaded machine)."""
     t0 = time.monotonic()
     while time.monotonic() - t0 < timeout:
         assert proc.poll() is None, "the runner ended early"
@@ -88,22 +91,26 @@ values = [1, 2, 3]
     try:
         wait_for_steps([out / "seed-1" / "pdem.log", out / "seed-2" / "pdem.log"], proc)
         proc.send_signal(signal.SIGTERM)  # the runner only: it forwards to the members
-        text, _ = proc.communicate(timeout=120)
+        text, _ = proc.communicate(timeout=300)
     finally:
         if proc.poll() is None:
             proc.kill()
     assert proc.returncode == 3, text
     assert "SIGTERM received: stopping 2 running member(s)" in text
     st = states(out)
-    assert [st[n]["state"] for n in ("seed-1", "seed-2", "seed-3")] == ["stopped", "stopped", "pending"]
-    for n in ("seed-1", "seed-2"):
+    # the two running members stop (a member may just have finished its few seconds of steps when
+    # the signal came: then it is done); the third never started
+    stopped = [n for n in ("seed-1", "seed-2") if st[n]["state"] == "stopped"]
+    assert stopped and all(st[n]["state"] in ("stopped", "done") for n in ("seed-1", "seed-2"))
+    assert st["seed-3"]["state"] == "pending"
+    for n in stopped:
         assert st[n]["exit"] == 3
         ckpts = sorted((out / n / "checkpoints").glob("ckpt_*.h5"))
         assert ckpts and int(ckpts[-1].stem.split("_")[1]) < 2000
     r = pdem_campaign("run", p)
     assert r.returncode == 0, r.stdout + r.stderr
-    assert "3 to run (2 resume from a checkpoint)" in r.stdout
-    for n in ("seed-1", "seed-2"):
+    assert f"{1 + len(stopped)} to run ({len(stopped)} resume from a checkpoint)" in r.stdout
+    for n in stopped:
         assert "resuming from" in (out / n / "pdem.log").read_text()
         assert states(out)[n]["attempts"] == 2
     # the same campaign uninterrupted, in another directory
@@ -130,7 +137,7 @@ def test_two_rank_member_stops_and_resumes(tmp_path, tiny):
     try:
         wait_for_steps([out / "seed-7" / "pdem.log"], proc)
         proc.send_signal(signal.SIGTERM)
-        text, _ = proc.communicate(timeout=120)
+        text, _ = proc.communicate(timeout=300)
     finally:
         if proc.poll() is None:
             proc.kill()
@@ -144,3 +151,4 @@ def test_two_rank_member_stops_and_resumes(tmp_path, tiny):
     rec = json.loads((out / "seed-7" / "run.json").read_text())
     assert [a["exit"] for a in rec["attempts"]] == [3, 0] and rec["attempts"][1]["ranks"] == 2
     assert rec["core_s"] == pytest.approx(2 * rec["wall_s"], abs=0.01)
+    assert all(a["cpu_s"] > 0 for a in rec["attempts"])  # mpiexec's tree: both ranks' CPU time

@@ -99,7 +99,7 @@ def test_script_passes_bash_n_and_asks_for_the_resources(tmp_path, tiny):
     assert fake_log(tmp_path) == [f"sbatch {script}"] and script.stat().st_mtime_ns == before
 
 
-def run_task(script, env, timeout=120):
+def run_task(script, env, timeout=600):
     return subprocess.run(["bash", str(script)], capture_output=True, text=True, env=env, timeout=timeout)
 
 
@@ -147,7 +147,7 @@ def test_usr1_at_the_wall_time_is_forwarded_and_requeues(tmp_path, tiny):
             assert proc.poll() is None and time.monotonic() - t0 < 60, proc.stdout.read() if proc.poll() else "timeout"
             time.sleep(0.05)
         proc.send_signal(signal.SIGUSR1)  # what --signal=B:USR1@240 does
-        text, _ = proc.communicate(timeout=60)
+        text, _ = proc.communicate(timeout=300)
     finally:
         if proc.poll() is None:
             proc.kill()
@@ -173,7 +173,7 @@ def test_real_pdem_through_srun_stops_and_resumes(tmp_path, tiny):
             assert proc.poll() is None and time.monotonic() - t0 < 120
             time.sleep(0.05)
         proc.send_signal(signal.SIGUSR1)
-        text, _ = proc.communicate(timeout=120)
+        text, _ = proc.communicate(timeout=300)
     finally:
         if proc.poll() is None:
             proc.kill()

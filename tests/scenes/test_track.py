@@ -251,6 +251,6 @@ def test_bad_input_one_line(tmp_path, edit, ranks, message):
     scene = tmp_path / "bad.toml"
     scene.write_text(SCENE.replace(*edit))
     r = run_pdem(ranks, scene, tmp_path / "out", expect=2)
-    # one line (from every rank, possibly interleaved), no traceback
-    assert message in r.stderr and r.stderr.count("pdem: error:") == r.stderr.count("\n") == ranks, r.stderr
+    # one line, printed once however many ranks found it (docs/reliability.md), no traceback
+    assert message in r.stderr and r.stderr.count("pdem: error:") == r.stderr.count("\n") == 1, r.stderr
     assert "Traceback" not in r.stderr

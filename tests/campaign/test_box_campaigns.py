@@ -1,0 +1,47 @@
+"""The box-test campaign files of the calibration and the thesis's studies (docs/box_test.md
+"Calibration and studies") expand: every member's scene passes `pdem run`'s checks, with the
+options and values each file promises. Nothing is run."""
+import pytest
+
+from campaign_helpers import ROOT
+from pdem.campaign.spec import load_campaign
+
+
+def members(name, tmp_path):
+    camp = load_campaign(ROOT / "jobs" / "campaigns" / f"{name}.toml", out=str(tmp_path / name))
+    return {m.name: m.doc for m in camp.members}
+
+
+def test_calibration_crosses_the_compaction_options_with_ten_seeds(tmp_path):
+    got = members("box_calibration", tmp_path)
+    assert len(got) == 60
+    seeds = sorted({d["box_test"]["seed"] for d in got.values()})
+    assert seeds == list(range(1, 11))
+    for d in got.values():  # thesis (b)
+        assert d["materials"]["ballast"]["young"] == 2.8e6 and d["box_test"]["radius_spread"] == 0.4
+        assert (d["box_test"]["f_min"], d["box_test"]["f_max"]) == (0.0, 3000.0)
+    yade = next(d for n, d in got.items() if n.startswith("yade_"))["box_test"]
+    assert (yade["cut"], yade["sleeper_placement"], yade["base"], yade["vibration_friction_contacts"]) == (
+        "center", "cut", "two_sided", "new")
+    assert next(d for n, d in got.items() if n.startswith("unvibrated"))["box_test"]["vibration_time"] == 0.0
+
+
+@pytest.mark.parametrize("name, key, values", [
+    ("box_stiffness", ("materials", "ballast", "young"), [2.8e6, 2.8e7, 2.8e8, 2.8e9, 2.8e10]),
+    ("box_frequency", ("box_test", "frequency"), [1.0, 0.1, 0.01]),
+    ("box_damping", ("simulation", "damping"), [0.2, 0.3, 0.6, 0.9]),
+])
+def test_study_files_expand(tmp_path, name, key, values):
+    got = members(name, tmp_path)
+    seen = []
+    for d in got.values():
+        v = d
+        for k in key:
+            v = v[k]
+        seen.append(v)
+    assert sorted(seen) == sorted(values)
+    if name == "box_stiffness":  # steel 10x and rubber 0.1x the ballast in every member
+        for d in got.values():
+            m = d["materials"]
+            assert m["steel"]["young"] == pytest.approx(10 * m["ballast"]["young"])
+            assert m["rubber"]["young"] == pytest.approx(0.1 * m["ballast"]["young"])

@@ -1,0 +1,206 @@
+"""The box test's options (docs/box_test.md "Options") end to end, short: a ~200-sphere box test
+run with pdem's defaults and with the options the thesis's Yade scripts suggest, on 1 and 2
+ranks (the same bits), resumed on 3 ranks in the middle of the vibration (the same bits), and
+each option's effect visible in the records.
+
+Option sets (each a few seconds per run):
+- ``yade``: friction lowered for new contacts only, cut by centre with the sleeper lowered onto
+  what the cut leaves, refill over the whole box, half-sine load, two-sided base on a very soft
+  rubber (grains pass through and are counted);
+- ``overlap``: cut by centre with the sleeper at the cut (its initial overlaps loaded at once,
+  as Yade; a soft sleeper and max_overlap_ratio = 1), vibration off.
+"""
+import shutil
+
+import h5py
+import numpy as np
+import pytest
+
+from pdem_cli import MPIEXEC, run_pdem
+from pdem.io.checkpoint import list_checkpoints, read_checkpoint
+
+# slow: 3 short box tests on 1 rank, 2 on 2 ranks and a resume on 3 (4-8 min on a loaded 2-core machine)
+pytestmark = pytest.mark.slow
+
+SCENE = """[simulation]
+dt = "auto"
+damping = 0.3
+gravity = [0.0, 0.0, -9.81]
+slab_axis = "x"
+
+[run]
+progress_every = 0
+output_every = 10
+snapshot_every = 0
+checkpoint_keep = 0
+
+[materials.ballast]
+density = 2600.0
+young = 2.8e6
+poisson = 0.3
+friction_angle = 0.5
+
+[materials.steel]
+density = 7850.0
+young = 2.8e7
+poisson = 0.25
+friction_angle = 0.5
+
+[materials.rubber]
+density = 1000.0
+young = 2.8e5
+poisson = 0.5
+friction_angle = 0.7
+
+[box_test]
+box = [0.24, 0.1, 0.2]
+radius = 0.0125
+radius_spread = 0.3
+seed = 3
+cut_height = 0.1
+height = 0.16
+sleeper_size = [0.08, 0.1, 0.06]
+sleeper_mass = 2.0
+settle_min_time = 0.05
+settle_max_time = 1.0
+vibration_time = 0.05
+f_min = 0.0
+f_max = 50.0
+frequency = 10.0
+cycles = 2
+"""
+OPTIONS = {
+    "default": "",
+    "yade": """vibration_friction_contacts = "new"
+cut = "center"
+sleeper_placement = "on_top"
+refill = "whole"
+waveform = "half_sine"
+base = "two_sided"
+""",
+    "overlap": """cut = "center"
+""",
+}
+
+needs_mpiexec = pytest.mark.skipif(not MPIEXEC.exists(), reason="multi-rank test: no mpiexec next to the Python "
+                                   "executable")
+
+
+def scene_text(name):
+    text = SCENE + OPTIONS[name]
+    if name == "yade":  # a base so soft that the sleeper pushes grains through it; checkpoints inside the stages
+        text = text.replace("young = 2.8e5", "young = 2.0e4").replace("checkpoint_keep = 0",
+                                                                      "checkpoint_keep = 0\ncheckpoint_every = 100")
+    if name == "overlap":  # vibration off; a soft sleeper, so that its initial overlaps do not shoot spheres away
+        text = text.replace("vibration_time = 0.05", "vibration_time = 0.0").replace("young = 2.8e7", "young = 2.8e5")
+        text = text.replace('slab_axis = "x"', 'slab_axis = "x"\nmax_overlap_ratio = 1.0')
+    return text
+
+
+def h5(path):
+    with h5py.File(path, "r") as f:
+        out = {}
+        f.visititems(lambda n, o: out.__setitem__(n, o[()]) if isinstance(o, h5py.Dataset) else None)
+        return out
+
+
+def assert_same(a, b):
+    for name in ("results.h5", "preparation.h5"):
+        x, y = h5(a / name), h5(b / name)
+        assert sorted(x) == sorted(y), name
+        for k in x:
+            assert np.array_equal(x[k], y[k], equal_nan=True), f"{b}/{name}:{k} differs"
+    last = lambda d: read_checkpoint(list_checkpoints(d / "checkpoints")[-1][1])[0]  # noqa: E731
+    ta, tb = last(a), last(b)
+    for c in ta["particles"]:
+        assert np.array_equal(ta["particles"][c], tb["particles"][c]), f"{b}: particles/{c}"
+
+
+@pytest.fixture(scope="module")
+def runs(tmp_path_factory):
+    """name -> (run directory on 1 rank, its stdout)."""
+    base = tmp_path_factory.mktemp("box_options")
+    out = {}
+    for name in OPTIONS:
+        scene = base / f"{name}.toml"
+        scene.write_text(scene_text(name))
+        out[name] = (base / name, run_pdem(1, scene, base / name).stdout, scene)
+    return out
+
+
+def cycles(d):
+    return {k[len("cycles/"):]: v for k, v in h5(d / "results.h5").items() if k.startswith("cycles/")}
+
+
+def series(d, name="results.h5"):
+    return {k[len("series/"):]: v for k, v in h5(d / name).items() if k.startswith("series/")}
+
+
+def test_records_split_the_force_and_share_one_zero(runs):
+    for name, (d, _, _) in runs.items():
+        c, s = cycles(d), series(d)
+        # the bottom face carries most of the load, the sides the rest; together the ballast force
+        assert np.all(c["force_bottom_peak"] > c["force_side_peak"]), name
+        assert np.allclose(s["sleeper_force_bottom"] + s["sleeper_force_side"], s["sleeper_force"], rtol=1e-12,
+                           atol=1e-9), name
+        # one zero: the largest settlement bounds the others of its cycle
+        for k in ("settlement_peak", "settlement_start", "settlement_at_force_max"):
+            assert np.all(c["settlement_max"] >= c[k]), (name, k)
+        assert c["settlement_start"][0] == pytest.approx(0.0, abs=1e-6)
+
+
+def test_each_option_shows_in_the_run(runs):
+    d, out, _ = runs["yade"]
+    assert "spheres over the whole box" in out
+    c, s = cycles(d), series(d)
+    assert s["base_passed"].max() > 0 and c["base_passed_end"][-1] > 0, "no grain passed the two-sided base"
+    # the half-sine program (the load of a row is the one of the step's start, t - dt; dt may change between
+    # rows, so within 0.1 N), far from the haversine
+    t, load, start = s["time"][1:] - s["dt"][1:], s["sleeper_load"][1:], c["t_start"][0]
+    phase = np.pi * 10.0 * np.maximum(t - start, 0.0)
+    assert np.abs(load - 50.0 * np.abs(np.sin(phase))).max() < 0.1
+    assert np.abs(load - 50.0 * (1 - np.cos(2 * phase)) / 2).max() > 5.0
+    d0, out0, _ = runs["default"]
+    assert "beside it" in out0 and series(d0)["base_passed"].max() == 0
+    # cut by centre: spheres stick out of the cut, so the sleeper lowered onto them sits above it
+    assert bottom_of(out) > 0.1
+    # ... and placed at the cut it starts overlapping them; vibration off: the vibrate stage takes no step
+    d1, out1, _ = runs["overlap"]
+    assert bottom_of(out1) == 0.1
+    prep = series(d1, "preparation.h5")
+    t_vib = prep["time"][prep["stage"] == 2]
+    assert len(t_vib) and t_vib.max() == t_vib.min(), "vibration_time = 0 still vibrated"
+
+
+def bottom_of(stdout):
+    line = next(s for s in stdout.splitlines() if "placed the sleeper (bottom" in s)
+    return float(line.split("(bottom ")[1].split(" m")[0])
+
+
+@needs_mpiexec
+@pytest.mark.parametrize("name", ["yade", "overlap"])
+def test_same_bits_on_2_ranks(runs, tmp_path, name):
+    d, _, scene = runs[name]
+    run_pdem(2, scene, tmp_path / "r2")
+    assert_same(d, tmp_path / "r2")
+
+
+@needs_mpiexec
+def test_resume_in_the_middle_of_the_vibration_on_3_ranks(runs, tmp_path):
+    """With friction lowered for new contacts only, a resume inside the vibrate stage must keep the
+    tan φ every contact had (carried in the checkpoint) and lower it only for new ones."""
+    d, out, scene = runs["yade"]
+
+    def step_of(text):
+        return int(next(s for s in out.splitlines() if text in s).split(":")[0].split()[1])
+
+    start, end = step_of("(end of stage refill"), step_of("(end of stage vibrate")
+    mid = next(s for s, _ in list_checkpoints(d / "checkpoints") if start < s < end)
+    res = tmp_path / "resumed"
+    shutil.copytree(d, res)
+    for s, p in list_checkpoints(res / "checkpoints"):
+        if s > mid:
+            p.unlink()
+    r = run_pdem(3, scene, res)
+    assert f"at step {mid} (stage vibrate" in r.stdout and "stage vibrate (resumed)" in r.stdout
+    assert_same(d, res)
