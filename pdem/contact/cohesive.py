@@ -35,6 +35,7 @@ import numpy as np
 from numba import njit
 
 from ..vec import dot3, scgeom_rotate
+from . import linear
 
 NAME = "cohesive"
 N_PARAMS = 3
@@ -127,21 +128,12 @@ def force(p, fresh, nx, ny, nz, pen, vn, six, siy, siz, ox, oy, oz, tx, ty, tz, 
 
 
 # ---------------------------------------------------------------------------- numpy side
-def stiffness(params, history, overlap):
-    """(kn, ks) [N/m] per contact row, for the time step."""
-    return params[:, 0], params[:, 1]
-
-
-dt_stiffness = stiffness  # no damping, no rolling: the time step sees kn, ks as they are
-
-
-def pwave_modulus(values, radius):
-    """Young's modulus [Pa] per body for the P-wave step: the material's ``young`` itself."""
-    return values
-
-
-def combine(key, a, b):
-    raise KeyError(key)  # never called: PAIR_KEYS is empty
+# params[:, :2] are kn, ks as in the linear law: the same time-step stiffness (no damping, no
+# rolling), P-wave modulus (the material's young) and no per-pair keys
+stiffness = linear.stiffness
+dt_stiffness = linear.dt_stiffness
+pwave_modulus = linear.pwave_modulus
+combine = linear.combine
 
 
 def contact_forces(params, history, overlap, normal):
