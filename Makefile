@@ -7,7 +7,6 @@ VENV    := .venv
 VPY     := $(VENV)/bin/python
 MPIEXEC := $(VENV)/bin/mpiexec
 NP      ?= 2
-export NUMBA_THREADING_LAYER ?= workqueue
 export OMP_NUM_THREADS ?= 1
 export MPLBACKEND ?= Agg
 
@@ -52,10 +51,12 @@ test-mpi: venv
 validate: venv
 	$(PYTEST) -m validate tests
 
-# Throughput on one rank (1 and 2 threads), then 1 vs 2 MPI ranks (bench/results.json, docs/performance.md)
+# Throughput on one rank (1 and 2 threads), then 1 vs 2 MPI ranks, then the start-up time (bench/results.json,
+# docs/performance.md)
 bench: venv
 	$(VPY) -m bench
 	$(VPY) -m bench --mpi
+	$(VPY) -m bench.startup
 
 clean:
 	rm -rf $(VENV) runs bench/cache

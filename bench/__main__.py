@@ -189,9 +189,7 @@ def run_clump_case(n, threads, steps):
     wall = time.perf_counter() - t0
     p = sim.particles
     split = dict(sim.timers.seconds)
-    nbytes = p.bytes_per_particle() * p.n_total + sum(
-        c.bytes() for c in (sim.kind("sphere_sphere").contacts, sim.kind("sphere_wall").contacts)
-    )
+    nbytes = sim.memory_bytes()
     return {
         "case": f"clump_bed_{n}",
         "n_particles": int(n),
@@ -258,7 +256,7 @@ def run_mpi_case(n, steps):
     wall = time.perf_counter() - t0
     p = sim.particles
     split = {k: comm.allreduce_max(v) for k, v in sim.timers.seconds.items()}
-    nbytes = p.bytes_per_particle() * p.n_total + sum(k.contacts.bytes() for k in sim.kinds)
+    nbytes = sim.memory_bytes()
     nbytes = comm.allreduce_sum_int(int(nbytes))
     owned = comm.allreduce_sum_int(int(p.n_local))
     ghosts = comm.allreduce_sum_int(int(p.n_ghost))
@@ -299,7 +297,7 @@ def run_case(n, threads, steps):
     wall = time.perf_counter() - t0
     p = sim.particles
     split = dict(sim.timers.seconds)
-    nbytes = p.bytes_per_particle() * p.n_total + sum(k.contacts.bytes() for k in sim.kinds)
+    nbytes = sim.memory_bytes()
     return {"case": f"settled_bed_{n}", "n_particles": int(n), "ranks": 1, "threads": threads, "steps": steps,
             "wall_s": wall, "particle_steps_per_s": n * steps / wall,
             "contacts_per_particle": sim.contacts_per_particle(), "bytes_per_particle": nbytes / n,
@@ -373,7 +371,7 @@ def main_mpi(args):
     for n in args.mpi_sizes:
         bed(n)  # made (or tiled) once, serially, before any mpiexec
         for r in args.ranks:
-            env = dict(os.environ, NUMBA_NUM_THREADS="1", NUMBA_THREADING_LAYER="workqueue")
+            env = dict(os.environ, NUMBA_NUM_THREADS="1")
             cmd = [str(mpiexec), "-n", str(r), sys.executable, "-m", "bench", "--one-mpi", str(n),
                    "--steps", str(args.steps)]
             out = subprocess.run(cmd, env=env, capture_output=True, text=True, cwd=HERE.parent)
@@ -427,7 +425,7 @@ def main(argv=None):
     for flag, n, prepare in cases:
         prepare(n)
         for th in args.threads:
-            env = dict(os.environ, NUMBA_NUM_THREADS=str(max(args.threads)), NUMBA_THREADING_LAYER="workqueue")
+            env = dict(os.environ, NUMBA_NUM_THREADS=str(max(args.threads)))
             out = subprocess.run([sys.executable, "-m", "bench", flag, str(n), str(th), "--steps", str(args.steps)],
                                  env=env, capture_output=True, text=True, cwd=HERE.parent)
             if out.returncode != 0:

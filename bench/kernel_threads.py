@@ -1,6 +1,6 @@
 """Probe of the `pdem.kernels.Kernel` twins: serial twin vs parallel twin on 1 and 2 threads.
 
-    NUMBA_NUM_THREADS=2 NUMBA_THREADING_LAYER=workqueue python -m bench.kernel_threads [N]
+    NUMBA_NUM_THREADS=2 python -m bench.kernel_threads [N]     (NUMBA_THREADING_LAYER=workqueue to compare)
 
 Builds the cached settled bed of N spheres (default 10000), runs 50 steps, then times each
 kernel of a step called directly (serial twin / parallel twin) and prints µs per call.

@@ -4,7 +4,7 @@ One `ContactList` per contact kind (sphere–sphere, sphere–wall, sphere–fac
 *candidate* pair from the neighbour list; `state[p]` is 1 while the pair is a real contact
 (Yade: the interaction exists) and 0 otherwise. Columns:
 
-- ``i`` row of the first body; for sphere–sphere ``gid[i] < gid[j]`` (Yade's id1 < id2), for
+- ``i`` row of the first body (int32, as ``j``: rows, never gids); for sphere–sphere ``gid[i] < gid[j]`` (Yade's id1 < id2), for
   sphere–wall and sphere–facet ``i`` is the sphere and ``j`` the wall or facet index.
 - ``key`` int64 that identifies the pair on every rank and across rebuilds:
   ``gid_i << 32 | gid_j`` for spheres, ``gid << 20 | index`` for walls and facets.
@@ -23,6 +23,8 @@ from numba import njit
 KEY_SHIFT_SPHERE = 32
 KEY_SHIFT_INDEX = 20
 MAX_WALLS_OR_FACETS = 1 << KEY_SHIFT_INDEX
+ROW = np.int32  # dtype of row indices (i, j): half the bytes of int64 per candidate
+SLACK = 1.1  # capacity over the rows in use when the list grows (rows cost ~170 B each)
 
 
 class ContactList:
@@ -37,8 +39,8 @@ class ContactList:
 
     def _alloc(self, capacity):
         self.capacity = capacity
-        self.i = np.zeros(capacity, np.int64)
-        self.j = np.zeros(capacity, np.int64)
+        self.i = np.zeros(capacity, ROW)
+        self.j = np.zeros(capacity, ROW)
         self.key = np.zeros(capacity, np.int64)
         self.state = np.zeros(capacity, np.int8)
         self.params = np.zeros((capacity, self.n_params))
@@ -59,7 +61,7 @@ class ContactList:
         old = (self.n, self.key, self.state, self.params, self.history)
         cap = max(n, 16)
         if cap > self.capacity or cap < self.capacity // 4:
-            cap = int(cap * 1.3) + 16
+            cap = int(cap * SLACK) + 16
         else:
             cap = self.capacity
         new_state = np.zeros(cap, np.int8)
@@ -96,7 +98,7 @@ class ContactList:
         if need > self.capacity:
             keep = (self.i[: self.n].copy(), self.j[: self.n].copy(), self.key[: self.n].copy(),
                     self.state[: self.n].copy(), self.params[: self.n].copy(), self.history[: self.n].copy())
-            self._alloc(int(need * 1.3) + 16)
+            self._alloc(int(need * SLACK) + 16)
             for arr, val in zip((self.i, self.j, self.key, self.state, self.params, self.history), keep):
                 arr[: self.n] = val
         sl = slice(self.n, need)

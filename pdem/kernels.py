@@ -1,9 +1,14 @@
 """`@kernel`: one Python source compiled twice by numba, serial and `parallel=True`; and
-`specialize`: one template compiled per combination of the inline functions it calls.
+`specialize`: one template compiled per combination of the inline functions it calls; and the
+choice of numba's threading layer.
 
-A parallel region costs ~0.1–0.3 ms to launch, more than a whole step of a small scene, so a call
-runs the serial twin when the work (the argument at `size_arg`) is below `PARALLEL_MIN` or numba
-has one thread. Both twins execute the same race-free loops and give the same bits. The serial
+Threading layer: GNU OpenMP (``omp``) when numba can load it (gcc's libgomp), else
+``workqueue``; an explicit ``NUMBA_THREADING_LAYER`` wins. A parallel launch costs ~3 µs with
+omp and ~30 µs with workqueue on the 2-core bench machine (`bench.kernel_threads`), which is
+what made two threads slower than one on small scenes. omp threads spin briefly after a region:
+keep ranks × threads within the cores (`pdem.parallel.comm.configure_threads` does so).
+A call runs the serial twin when the work (the argument at `size_arg`) is below `PARALLEL_MIN`
+or numba has one thread, so single-threaded ranks never start a thread pool. Both twins execute the same race-free loops and give the same bits. The serial
 twin gets its own qualified name so the two never share a numba cache entry.
 
 `specialize(template, name, bindings, sources)` is how the contact loops are generated from a
@@ -18,6 +23,7 @@ numba checks only the template's file for staleness, so without the hash an edit
 silently run the old compiled loop.
 """
 import hashlib
+import os
 import types
 from pathlib import Path
 
@@ -25,6 +31,24 @@ import numba
 from numba import njit
 
 PARALLEL_MIN = 4096
+
+
+def choose_threading_layer():
+    """Set numba's threading layer (before the first parallel launch): the environment's
+    ``NUMBA_THREADING_LAYER`` if given, else ``omp`` if numba's OpenMP pool loads, else
+    ``workqueue``. Returns the layer chosen."""
+    if os.environ.get("NUMBA_THREADING_LAYER"):
+        return numba.config.THREADING_LAYER
+    try:
+        from numba.np.ufunc import omppool  # noqa: F401  (loads libgomp)
+
+        numba.config.THREADING_LAYER = "omp"
+    except ImportError:
+        numba.config.THREADING_LAYER = "workqueue"
+    return numba.config.THREADING_LAYER
+
+
+choose_threading_layer()
 
 
 class Kernel:

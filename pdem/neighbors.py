@@ -186,7 +186,7 @@ def build_incidence(n_local, n_pairs, pi, pj, gid):
     for b in range(n_local):
         ptr[b + 1] += ptr[b]
     m = ptr[n_local]
-    pair = np.empty(m, np.int64)
+    pair = np.empty(m, np.int32)  # rows of the contact list (int32, as its i and j)
     first = np.empty(m, np.int8)
     pg = np.empty(m, np.int64)  # partner gid of each entry
     fill = ptr[:-1].copy()

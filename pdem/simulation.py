@@ -207,6 +207,11 @@ class Simulation:
     def contacts_per_particle(self):
         return diagnostics.contacts_per_particle(self)
 
+    def memory_bytes(self):
+        """Bytes held by this rank's per-body arrays, contact rows and incidence lists [B]."""
+        p = self.particles
+        return p.bytes_per_particle() * p.n_total + sum(k.bytes() for k in self.kinds)
+
     def energy(self):
         return diagnostics.energy(self)
 
@@ -270,7 +275,7 @@ class Simulation:
             out["gid2"] = p.gid[c.j[rows]].copy()
             out["force"] = -c.force[rows]
         else:
-            out["index"] = c.j[rows].copy()
+            out["index"] = c.j[rows].astype(np.int64)
             out["force"] = c.force[rows].copy()
         for name, col in law.PARAM_NAMES.items():
             out.setdefault(name, params[:, col].copy())

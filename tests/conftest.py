@@ -26,10 +26,12 @@ from pathlib import Path
 
 import pytest
 
-from pdem.parallel.comm import get_comm
+from pdem.parallel.comm import configure_threads, get_comm
 
 _COMM = get_comm()
 _PARALLEL = _COMM.size > 1
+if _PARALLEL:  # ranks x threads within the cores (OpenMP threads spin: oversubscribing costs ~3x)
+    configure_threads(_COMM)
 
 
 _LOG_DIR = Path(

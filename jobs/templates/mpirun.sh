@@ -7,5 +7,4 @@ here="$(cd "$(dirname "$0")/../.." && pwd)"
 scene="$1"; out="$2"; np="${3:-2}"
 cores=$(nproc)
 export NUMBA_NUM_THREADS=$(( cores / np > 0 ? cores / np : 1 ))
-export NUMBA_THREADING_LAYER=workqueue
 exec "$here/.venv/bin/mpiexec" -n "$np" "$here/.venv/bin/python" -m pdem run "$scene" --out "$out"

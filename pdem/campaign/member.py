@@ -47,7 +47,6 @@ def launch_command(launcher, ranks, threads, scene, out, launcher_args=()):
 
 def member_env(threads):
     env = dict(os.environ, NUMBA_NUM_THREADS=str(threads), OMP_NUM_THREADS="1", MPLBACKEND="Agg")
-    env.setdefault("NUMBA_THREADING_LAYER", "workqueue")
     return env
 
 

@@ -63,7 +63,6 @@ def slurm_script(camp, man, out):
         "fi",
         'member="${MEMBERS[$task]}"',
         f"export NUMBA_NUM_THREADS={threads} OMP_NUM_THREADS=1 MPLBACKEND=Agg",
-        'export NUMBA_THREADING_LAYER="${NUMBA_THREADING_LAYER:-workqueue}"',
         'echo "array task ${SLURM_ARRAY_JOB_ID:-?}_$task: member $member on $(hostname) at $(date -Is)"',
         f'"$PYTHON" -m pdem campaign member "$CAMPAIGN_DIR" "$member" --launcher {s["launcher"]}{launcher_args} &',
         "pid=$!",

@@ -37,7 +37,7 @@ class ContactKind:
         self.contacts = ContactList(law.N_PARAMS + 1, law.HISTORY + NORMAL_COLUMNS)
         self.loop = make_pair_loop(geometry, law)
         self.ptr = np.zeros(1, np.int64)
-        self.rows = np.zeros(0, np.int64)
+        self.rows = np.zeros(0, np.int32)
         self.worst_overlap = 0.0  # largest overlap / smaller radius of the last compute [-]
 
     @property
@@ -52,6 +52,10 @@ class ContactKind:
         self.worst_overlap = self.loop(c.n, c.i, c.j, c.state, c.params, c.history, c.force, c.torque_i, c.torque_j,
                                        c.overlap, p.pos, p.vel, p.angvel, p.radius, p.material, p.mass, sim.props,
                                        other_f, other_i, sim.dt, sim.step)
+
+    def bytes(self):
+        """Memory of the contact rows and the per-body incidence (CSR) of this kind [B]."""
+        return self.contacts.bytes() + self.ptr.nbytes + self.rows.nbytes + getattr(self, "first", self.ptr[:0]).nbytes
 
     def owned_rows(self, n_local):
         """Real contact rows counted by this rank (each contact once over all ranks)."""
@@ -123,7 +127,7 @@ class BoundaryContacts(ContactKind):
         p = sim.particles
         self.ptr, ps, pb = self._candidates(p.pos, p.radius, p.n_local, sim.skin, *self.boundary.search_arrays())
         self.contacts.replace(ps, pb, index_pair_keys(ps, pb, p.gid))
-        self.rows = np.arange(len(ps), dtype=np.int64)
+        self.rows = np.arange(len(ps), dtype=np.int32)
 
     def kernel_arrays(self):
         return self.boundary.kernel_f, self.boundary.kernel_i
