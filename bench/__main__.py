@@ -187,7 +187,6 @@ def run_clump_case(n, threads, steps):
     t0 = time.perf_counter()
     sim.run(steps)
     wall = time.perf_counter() - t0
-    p = sim.particles
     split = dict(sim.timers.seconds)
     nbytes = sim.memory_bytes()
     return {
@@ -295,7 +294,6 @@ def run_case(n, threads, steps):
     t0 = time.perf_counter()
     sim.run(steps)
     wall = time.perf_counter() - t0
-    p = sim.particles
     split = dict(sim.timers.seconds)
     nbytes = sim.memory_bytes()
     return {"case": f"settled_bed_{n}", "n_particles": int(n), "ranks": 1, "threads": threads, "steps": steps,

@@ -32,13 +32,12 @@ def main(n=10000):
     hist = ss.history.copy(), ss.state.copy(), ss.params.copy()
 
     def ssf(k):
-        return lambda: k(ss.n, ss.i, ss.j, ss.state, ss.params, ss.history, ss.force, ss.torque_i, ss.torque_j,
-                         ss.overlap, p.pos, p.vel, p.angvel, p.radius, p.material, p.mass, sim.props, other_f, other_i,
-                         sim.dt, sim.step)
+        return lambda: k(ss.n, ss.i, ss.j, ss.state, ss.params, ss.history, ss.force, ss.torque, ss.overlap,
+                         pairs.slot, pairs.slot_f, pairs.slot_t, p.pos, p.vel, p.angvel, p.radius, p.material,
+                         p.mass, sim.props, other_f, other_i, sim.dt, sim.step)
 
     def sums(k):
-        return lambda: k(p.n_local, pairs.ptr, pairs.rows, pairs.first, ss.force, ss.torque_i, ss.torque_j,
-                         p.force, p.torque)
+        return lambda: k(p.n_local, pairs.ptr, pairs.slot_f, pairs.slot_t, p.force, p.torque)
 
     pos0, vel0, w0 = p.pos.copy(), p.vel.copy(), p.angvel.copy()
 

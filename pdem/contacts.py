@@ -4,14 +4,16 @@ One `ContactList` per contact kind (sphere–sphere, sphere–wall, sphere–fac
 *candidate* pair from the neighbour list; `state[p]` is 1 while the pair is a real contact
 (Yade: the interaction exists) and 0 otherwise. Columns:
 
-- ``i`` row of the first body (int32, as ``j``: rows, never gids); for sphere–sphere ``gid[i] < gid[j]`` (Yade's id1 < id2), for
-  sphere–wall and sphere–facet ``i`` is the sphere and ``j`` the wall or facet index.
+- ``i`` row of the first body (int32, as ``j``: rows, never gids); for sphere–sphere
+  ``gid[i] < gid[j]`` (Yade's id1 < id2), for sphere–wall and sphere–facet ``i`` is the sphere
+  and ``j`` the wall or facet index.
 - ``key`` int64 that identifies the pair on every rank and across rebuilds:
   ``gid_i << 32 | gid_j`` for spheres, ``gid << 20 | index`` for walls and facets.
 - ``params[:, n_params]`` fixed when the contact is created (Yade's Ip2), ``history[:, width]``
   carried from step to step; the widths are set by the contact law.
-- per step outputs: ``force`` [N] on the first body (sphere–sphere) or on the sphere (walls,
-  facets), ``torque_i``/``torque_j`` [N·m], ``overlap`` [m] (0 when not in contact).
+- per step outputs: ``overlap`` [m] (0 when not in contact); for walls, facets and boxes also
+  ``force`` [N] and ``torque`` [N·m] on the sphere (``row_outputs``). Sphere pairs write their
+  forces into per-body slots instead (`pdem.contact.kinds.SpherePairs`).
   Invariant: a row with ``state == 0`` has zero history and zero outputs (`replace` clears the
   rows it installs, the force loops clear a contact that opens), so a loop may skip it.
 
@@ -24,15 +26,16 @@ KEY_SHIFT_SPHERE = 32
 KEY_SHIFT_INDEX = 20
 MAX_WALLS_OR_FACETS = 1 << KEY_SHIFT_INDEX
 ROW = np.int32  # dtype of row indices (i, j): half the bytes of int64 per candidate
-SLACK = 1.1  # capacity over the rows in use when the list grows (rows cost ~170 B each)
+SLACK = 1.05  # capacity over the rows in use when the list grows (a row costs ~100 B)
 
 
 class ContactList:
     """Candidate pairs of one kind, structure of arrays, with growable capacity."""
 
-    def __init__(self, n_params, history_width, capacity=64):
+    def __init__(self, n_params, history_width, capacity=64, row_outputs=True):
         self.n_params = n_params
         self.history_width = history_width
+        self.row_outputs = row_outputs
         self.n = 0
         self.capacity = 0
         self._alloc(capacity)
@@ -45,9 +48,9 @@ class ContactList:
         self.state = np.zeros(capacity, np.int8)
         self.params = np.zeros((capacity, self.n_params))
         self.history = np.zeros((capacity, self.history_width))
-        self.force = np.zeros((capacity, 3))
-        self.torque_i = np.zeros((capacity, 3))
-        self.torque_j = np.zeros((capacity, 3))
+        rows = capacity if self.row_outputs else 0
+        self.force = np.zeros((rows, 3))
+        self.torque = np.zeros((rows, 3))
         self.overlap = np.zeros(capacity)
 
     def replace(self, i, j, key, key_shift=None):
@@ -75,7 +78,7 @@ class ContactList:
         self.state, self.params, self.history = new_state, new_params, new_hist
         # a row with state 0 is clear (zero history and outputs): the force loops skip such rows
         # while the pair stays apart instead of clearing them every step
-        for out in (self.force, self.torque_i, self.torque_j, self.overlap):
+        for out in (self.force, self.torque, self.overlap):
             out[:n] = 0.0
         self.i[:n] = i
         self.j[:n] = j
@@ -109,7 +112,7 @@ class ContactList:
 
     def bytes(self):
         return sum(a.nbytes for a in (self.i, self.j, self.key, self.state, self.params, self.history,
-                                      self.force, self.torque_i, self.torque_j, self.overlap))
+                                      self.force, self.torque, self.overlap))
 
 
 @njit(cache=True)

@@ -11,12 +11,10 @@ from .kernels import kernel
 
 
 @kernel()
-def sum_sphere_pairs(n_local, inc_ptr, inc_pair, inc_first, pair_force, pair_torque_i, pair_torque_j, force, torque):
-    """force/torque[b] = Σ over b's sphere pairs by partner gid (+f on i, −f on j).
-
-    Branch-free in the side of the pair (whether b is the pair's i is random in a packing, and a
-    branch on it was mispredicted half of the time): ``s·f`` with s = ±1 is exactly ``f`` or
-    ``-f``, and the torque row is picked by a select, so the sums are bit-identical."""
+def sum_sphere_pairs(n_local, inc_ptr, slot_f, slot_t, force, torque):
+    """force/torque[b] = Σ over b's slots (its sphere pairs by partner gid; +f, torque_1 where b
+    is the pair's body 1, −f, torque_2 where it is body 2: written by the pair loop,
+    `pdem.contact.loops`). The slots of a body are contiguous, so this is a streaming pass."""
     for b in prange(n_local):
         fx = 0.0
         fy = 0.0
@@ -25,16 +23,12 @@ def sum_sphere_pairs(n_local, inc_ptr, inc_pair, inc_first, pair_force, pair_tor
         ty = 0.0
         tz = 0.0
         for k in range(inc_ptr[b], inc_ptr[b + 1]):
-            p = inc_pair[k]
-            first = inc_first[k] == 1
-            s = 2.0 * first - 1.0
-            tq = pair_torque_i if first else pair_torque_j
-            fx += s * pair_force[p, 0]
-            fy += s * pair_force[p, 1]
-            fz += s * pair_force[p, 2]
-            tx += tq[p, 0]
-            ty += tq[p, 1]
-            tz += tq[p, 2]
+            fx += slot_f[k, 0]
+            fy += slot_f[k, 1]
+            fz += slot_f[k, 2]
+            tx += slot_t[k, 0]
+            ty += slot_t[k, 1]
+            tz += slot_t[k, 2]
         force[b, 0] = fx
         force[b, 1] = fy
         force[b, 2] = fz

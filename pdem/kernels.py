@@ -8,8 +8,9 @@ omp and ~30 µs with workqueue on the 2-core bench machine (`bench.kernel_thread
 what made two threads slower than one on small scenes. omp threads spin briefly after a region:
 keep ranks × threads within the cores (`pdem.parallel.comm.configure_threads` does so).
 A call runs the serial twin when the work (the argument at `size_arg`) is below `PARALLEL_MIN`
-or numba has one thread, so single-threaded ranks never start a thread pool. Both twins execute the same race-free loops and give the same bits. The serial
-twin gets its own qualified name so the two never share a numba cache entry.
+or numba has one thread, so single-threaded ranks never start a thread pool. Both twins
+execute the same race-free loops and give the same bits. The serial twin gets its own
+qualified name so the two never share a numba cache entry.
 
 `specialize(template, name, bindings, sources)` is how the contact loops are generated from a
 (geometry, law) pair (`pdem.contact.loops`): a copy of ``template`` whose global names in

@@ -225,6 +225,16 @@ def build_incidence(n_local, n_pairs, pi, pj, gid):
 
 
 @njit(cache=True)
+def pair_slots(n_pairs, n_slots, inc_pair, inc_first):
+    """slot[n_pairs, 2] (int32): for each pair, the incidence entry (`build_incidence`) of its
+    body 1 and of its body 2, −1 where that body is a ghost (no entry)."""
+    slot = np.full((n_pairs, 2), -1, np.int32)
+    for k in range(n_slots):
+        slot[inc_pair[k], 1 - inc_first[k]] = k
+    return slot
+
+
+@njit(cache=True)
 def candidates_from_mask(near):
     """(ptr[n+1], sphere[m], boundary[m]) CSR of the true entries of ``near[n, nb]``, in boundary
     index order per sphere: the candidate lists of walls, facets and boxes."""

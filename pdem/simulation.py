@@ -273,10 +273,10 @@ class Simulation:
                "created": params[:, law.N_PARAMS].astype(np.int64)}
         if k.sphere_pair:
             out["gid2"] = p.gid[c.j[rows]].copy()
-            out["force"] = -c.force[rows]
+            out["force"] = -k.row_force(rows)
         else:
             out["index"] = c.j[rows].astype(np.int64)
-            out["force"] = c.force[rows].copy()
+            out["force"] = k.row_force(rows).copy()
         for name, col in law.PARAM_NAMES.items():
             out.setdefault(name, params[:, col].copy())
         for name, col in getattr(law, "HISTORY_NAMES", {}).items():

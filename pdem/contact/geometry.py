@@ -31,8 +31,9 @@ loop (`pdem.contact.loops`) calls; a geometry knows nothing of forces (that is t
     contactPoint, for laws whose torque lever is (contact point − centre) (``CONTACT_POINT_LEVER``,
     the cohesive law): sphere–sphere x1 + (r1 − pen/2) n; wall: the centre projected on the
     plane; facet and box: x2 − (r − pen/2) n.
-``TWO_PARTICLES``: body 1 is a particle (its row gets +f and torque_i, body 2 torque_j);
-    otherwise body 1 is a boundary and the row holds the force on the sphere (−f) and its torque.
+``TWO_PARTICLES``: body 1 is a particle (its slot gets +f and its torque, body 2's slot −f and
+    its torque: `pdem.contact.loops`); otherwise body 1 is a boundary and the row holds the force
+    on the sphere (−f) and its torque.
 
 Boundary rows (``other_f``, ``other_i``, one row per wall, facet or box) are laid out by the
 containers: `pdem.walls.Walls` (f: position, velocity; i: axis, sense, material),

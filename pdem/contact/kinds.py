@@ -21,6 +21,8 @@ from .loops import NORMAL_COLUMNS, make_pair_loop
 
 _NO_ROWS_F = np.zeros((0, 1))
 _NO_ROWS_I = np.zeros((0, 1), np.int64)
+_NO_SLOTS = np.zeros((0, 2), np.int32)
+_NO_SLOT_ROWS = np.zeros((0, 3))
 
 
 class ContactKind:
@@ -34,7 +36,8 @@ class ContactKind:
         self.name = geometry.name
         self.geometry = geometry
         self.law = law
-        self.contacts = ContactList(law.N_PARAMS + 1, law.HISTORY + NORMAL_COLUMNS)
+        self.contacts = ContactList(law.N_PARAMS + 1, law.HISTORY + NORMAL_COLUMNS,
+                                    row_outputs=not geometry.TWO_PARTICLES)
         self.loop = make_pair_loop(geometry, law)
         self.ptr = np.zeros(1, np.int64)
         self.rows = np.zeros(0, np.int32)
@@ -49,13 +52,22 @@ class ContactKind:
         """Run the force loop over every candidate row."""
         p, c = sim.particles, self.contacts
         other_f, other_i = self.kernel_arrays()
-        self.worst_overlap = self.loop(c.n, c.i, c.j, c.state, c.params, c.history, c.force, c.torque_i, c.torque_j,
-                                       c.overlap, p.pos, p.vel, p.angvel, p.radius, p.material, p.mass, sim.props,
+        slot, slot_f, slot_t = self.slot_arrays()
+        self.worst_overlap = self.loop(c.n, c.i, c.j, c.state, c.params, c.history, c.force, c.torque, c.overlap, slot,
+                                       slot_f, slot_t, p.pos, p.vel, p.angvel, p.radius, p.material, p.mass, sim.props,
                                        other_f, other_i, sim.dt, sim.step)
+
+    def slot_arrays(self):
+        """(slot, slot_f, slot_t) of the pair loop: empty for a boundary kind."""
+        return _NO_SLOTS, _NO_SLOT_ROWS, _NO_SLOT_ROWS
+
+    def row_force(self, rows):
+        """[len(rows), 3] force on the first body of each contact row [N]."""
+        return self.contacts.force[rows]
 
     def bytes(self):
         """Memory of the contact rows and the per-body incidence (CSR) of this kind [B]."""
-        return self.contacts.bytes() + self.ptr.nbytes + self.rows.nbytes + getattr(self, "first", self.ptr[:0]).nbytes
+        return self.contacts.bytes() + self.ptr.nbytes + self.rows.nbytes
 
     def owned_rows(self, n_local):
         """Real contact rows counted by this rank (each contact once over all ranks)."""
@@ -79,7 +91,9 @@ class SpherePairs(ContactKind):
 
     def __init__(self, law):
         super().__init__(SphereSphere, law)
-        self.first = np.zeros(0, np.int8)
+        self.slot = _NO_SLOTS  # per pair row: incidence entries of body 1 and body 2 (-1: a ghost)
+        self.slot_f = _NO_SLOT_ROWS  # per incidence entry: force [N] and torque [N·m] on its body
+        self.slot_t = _NO_SLOT_ROWS
 
     def rebuild(self, sim, cell):
         p = sim.particles
@@ -89,16 +103,37 @@ class SpherePairs(ContactKind):
             pi, pj = drop_same_clump(pi, pj, sim.clumps.row_clump)
         self.contacts.replace(pi, pj, sphere_pair_keys(pi, pj, p.gid), key_shift=KEY_SHIFT_SPHERE)
         c = self.contacts
-        self.ptr, self.rows, self.first = neighbors.build_incidence(p.n_local, c.n, c.i, c.j, p.gid)
+        self.ptr, self.rows, first = neighbors.build_incidence(p.n_local, c.n, c.i, c.j, p.gid)
+        self.slot = neighbors.pair_slots(c.n, len(self.rows), self.rows, first)
+        self.slot_f = np.zeros((len(self.rows), 3))  # zero: the loop fills the slots of real contacts
+        self.slot_t = np.zeros((len(self.rows), 3))
 
     def kernel_arrays(self):
         return _NO_ROWS_F, _NO_ROWS_I
 
+    def slot_arrays(self):
+        return self.slot, self.slot_f, self.slot_t
+
+    def row_force(self, rows):
+        """Force on body 1 of each row [N], from its slot (or −1 × body 2's slot: the same bits)."""
+        s1, s2 = self.slot[rows, 0], self.slot[rows, 1]
+        return np.where((s1 >= 0)[:, None], self.slot_f[np.maximum(s1, 0)], -self.slot_f[np.maximum(s2, 0)])
+
+    def row_torques(self, rows):
+        """(torque on body 1, torque on body 2) of each row [N·m] (NaN on a ghost's side)."""
+        out = []
+        for side in (0, 1):
+            s = self.slot[rows, side]
+            out.append(np.where((s >= 0)[:, None], self.slot_t[np.maximum(s, 0)], np.nan))
+        return tuple(out)
+
     def add_forces(self, sim):
         """Sets (not adds) every owned body's force and torque: the first sum of a step."""
-        p, c = sim.particles, self.contacts
-        forces.sum_sphere_pairs(p.n_local, self.ptr, self.rows, self.first, c.force, c.torque_i, c.torque_j,
-                                p.force, p.torque)
+        p = sim.particles
+        forces.sum_sphere_pairs(p.n_local, self.ptr, self.slot_f, self.slot_t, p.force, p.torque)
+
+    def bytes(self):
+        return super().bytes() + self.slot.nbytes + self.slot_f.nbytes + self.slot_t.nbytes
 
     def owned_rows(self, n_local):
         rows = self.contacts.real_rows()
@@ -134,7 +169,7 @@ class BoundaryContacts(ContactKind):
 
     def add_forces(self, sim):
         p, c = sim.particles, self.contacts
-        forces.add_sphere_contacts(p.n_local, self.ptr, c.force, c.torque_i, p.force, p.torque)
+        forces.add_sphere_contacts(p.n_local, self.ptr, c.force, c.torque, p.force, p.torque)
 
     def totals(self, comm):
         """[n_boundaries, 3] total force of the spheres on each boundary [N]: an exact sum over the

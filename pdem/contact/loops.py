@@ -13,8 +13,11 @@ creation step in the last parameter column) → ScGeom::precompute: orthonormal 
 twist axis (Δt/2 n_old·(ω1+ω2)) n_old from the normal stored in the geometry's history columns,
 relative velocity (Yade's, with the ratcheting factor; or at the contact point without it for a
 law with ``CONTACT_POINT_VELOCITY``), its normal part vn passed on and removed, Δu_s = v_t Δt →
-Law2 → outputs per row: the force on body 1 (pairs of particles) or on the sphere (boundaries),
-torques, overlap.
+Law2 → outputs: the overlap per row; for a boundary the force and torque on the sphere per row;
+for a pair of particles, (f, torque on body 1) into body 1's *slot* and (−f, torque on body 2)
+into body 2's slot. A slot is a body's entry in its incidence list (`pdem.neighbors.
+build_incidence`, partners by gid; −1 for a ghost body), so the per-body sum (`pdem.forces`) reads
+its slots in order, contiguously, instead of gathering pair rows (2–2.5× faster at 50k).
 
 Two optional law constants change the loop (pruned at compile time): ``TENSILE`` (a law with
 bonds, `pdem.contact.cohesive`): a real contact whose overlap became negative is not deleted by
@@ -22,10 +25,10 @@ the loop; the law's ``holds(p, fresh, pen, params, history)`` decides, after Ip2
 contact lives on this step (Yade's Law2 deletes the interaction and applies no force);
 ``CONTACT_POINT_LEVER``: torques (cp − x1) × f on body 1 and −(cp − x2) × f on body 2 with the
 geometry's contact point (Law2_ScGeom6D_CohFrictPhys_CohesionMoment) instead of CundallStrack's
-(r − pen/2) n × f. Rows are written
-only by their own iteration (race-free under ``prange``); `pdem.forces` sums them per body in a
-fixed order. The loop returns the largest overlap over the smaller radius of its contacts
-[-] (a max reduction: read by the runaway guard, `pdem.guard`, every step).
+(r − pen/2) n × f. Rows and slots are written only by their own row's iteration (race-free
+under ``prange``); `pdem.forces` sums them per body in a fixed order. The loop returns the
+largest overlap over the smaller radius of its contacts [-] (a max reduction: read by the
+runaway guard, `pdem.guard`, every step).
 
 The geometry and law functions take scalars and at most plain arrays they index themselves:
 an inline helper that passed arrays on to further inline helpers cost ~20 atomic reference-count
@@ -44,8 +47,8 @@ from .geometry import OPEN, SKIP
 NORMAL_COLUMNS = 3  # the geometry's history: the normal of the previous step
 
 
-def pair_forces(n, pi, pj, state, params, history, force, torque_i, torque_j, overlap, pos, vel, angvel, radius,
-                material, mass, props, other_f, other_i, dt, step):
+def pair_forces(n, pi, pj, state, params, history, force, torque, overlap, slot, slot_f, slot_t, pos, vel, angvel,
+                radius, material, mass, props, other_f, other_i, dt, step):
     """Forces of candidate rows [0, n) of one contact kind (placeholders bound by make_pair_loop);
     returns the largest overlap over the smaller radius [-] of the rows in contact."""
     worst = 0.0
@@ -56,29 +59,28 @@ def pair_forces(n, pi, pj, state, params, history, force, torque_i, torque_j, ov
         status, nx, ny, nz, pen = GEOM_CONTACT(fresh, i, j, pos, radius, other_f, other_i)  # noqa: F821
         if status == SKIP:
             continue  # a row with state 0 is already clear (ContactList.replace)
-        if status == OPEN and not LAW_TENSILE:  # noqa: F821  (Law2 deletes an opened contact)
+        drop = status == OPEN and not LAW_TENSILE  # noqa: F821  (Law2 deletes an opened contact)
+        if not drop:
+            if fresh:
+                ma, mb, ra, rb, m1, m2 = GEOM_IP2_ARGS(i, j, radius, material, mass, other_i)  # noqa: F821
+                LAW_IP2(props, ma, mb, ra, rb, m1, m2, params, p)  # noqa: F821
+                params[p, LAW_N_PARAMS] = step  # noqa: F821
+                state[p] = 1
+            drop = LAW_TENSILE and not LAW_HOLDS(p, fresh, pen, params, history)  # noqa: F821  (the law deletes it)
+        if drop:  # clear the row (and its slots): a row with state 0 is clear
             state[p] = 0
             for c in range(history.shape[1]):
                 history[p, c] = 0.0
-            for c in range(3):
-                force[p, c] = 0.0
-                torque_i[p, c] = 0.0
-                torque_j[p, c] = 0.0
-            overlap[p] = 0.0
-            continue
-        if fresh:
-            ma, mb, ra, rb, m1, m2 = GEOM_IP2_ARGS(i, j, radius, material, mass, other_i)  # noqa: F821
-            LAW_IP2(props, ma, mb, ra, rb, m1, m2, params, p)  # noqa: F821
-            params[p, LAW_N_PARAMS] = step  # noqa: F821
-            state[p] = 1
-        if LAW_TENSILE and not LAW_HOLDS(p, fresh, pen, params, history):  # noqa: F821  (the law deletes it)
-            state[p] = 0
-            for c in range(history.shape[1]):
-                history[p, c] = 0.0
-            for c in range(3):
-                force[p, c] = 0.0
-                torque_i[p, c] = 0.0
-                torque_j[p, c] = 0.0
+            if GEOM_TWO_PARTICLES:  # noqa: F821
+                for s in (slot[p, 0], slot[p, 1]):
+                    if s >= 0:
+                        for c in range(3):
+                            slot_f[s, c] = 0.0
+                            slot_t[s, c] = 0.0
+            else:
+                for c in range(3):
+                    force[p, c] = 0.0
+                    torque[p, c] = 0.0
             overlap[p] = 0.0
             continue
         wsx, wsy, wsz, wrx, wry, wrz = GEOM_SPINS(i, j, angvel)  # noqa: F821
@@ -125,34 +127,41 @@ def pair_forces(n, pi, pj, state, params, history, force, torque_i, torque_j, ov
             t2x = l2 * cx
             t2y = l2 * cy
             t2z = l2 * cz
-        if GEOM_TWO_PARTICLES:  # noqa: F821
-            force[p, 0] = fx
-            force[p, 1] = fy
-            force[p, 2] = fz
-            torque_i[p, 0] = t1x
-            torque_i[p, 1] = t1y
-            torque_i[p, 2] = t1z
-            torque_j[p, 0] = t2x
-            torque_j[p, 1] = t2y
-            torque_j[p, 2] = t2z
+        if GEOM_TWO_PARTICLES:  # noqa: F821  (into the slots of the owned bodies: f on 1, -f on 2)
             if LAW_MOMENT:  # noqa: F821  (a couple: +m on body 1, -m on body 2)
-                torque_i[p, 0] += mx
-                torque_i[p, 1] += my
-                torque_i[p, 2] += mz
-                torque_j[p, 0] -= mx
-                torque_j[p, 1] -= my
-                torque_j[p, 2] -= mz
+                t1x += mx
+                t1y += my
+                t1z += mz
+                t2x -= mx
+                t2y -= my
+                t2z -= mz
+            s = slot[p, 0]
+            if s >= 0:
+                slot_f[s, 0] = fx
+                slot_f[s, 1] = fy
+                slot_f[s, 2] = fz
+                slot_t[s, 0] = t1x
+                slot_t[s, 1] = t1y
+                slot_t[s, 2] = t1z
+            s = slot[p, 1]
+            if s >= 0:
+                slot_f[s, 0] = -fx
+                slot_f[s, 1] = -fy
+                slot_f[s, 2] = -fz
+                slot_t[s, 0] = t2x
+                slot_t[s, 1] = t2y
+                slot_t[s, 2] = t2z
         else:
             force[p, 0] = -fx
             force[p, 1] = -fy
             force[p, 2] = -fz
-            torque_i[p, 0] = t2x
-            torque_i[p, 1] = t2y
-            torque_i[p, 2] = t2z
+            torque[p, 0] = t2x
+            torque[p, 1] = t2y
+            torque[p, 2] = t2z
             if LAW_MOMENT:  # noqa: F821
-                torque_i[p, 0] -= mx
-                torque_i[p, 1] -= my
-                torque_i[p, 2] -= mz
+                torque[p, 0] -= mx
+                torque[p, 1] -= my
+                torque[p, 2] -= mz
         overlap[p] = pen
         r_min = min(radius[i], radius[j]) if GEOM_TWO_PARTICLES else radius[i]  # noqa: F821
         worst = max(worst, pen / r_min)

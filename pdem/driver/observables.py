@@ -33,7 +33,7 @@ def unbalanced_force(sim):
     if sim.clumps is not None:
         net = np.concatenate([net, sim.clumps.net_forces(sim.gravity)])
     body = np.linalg.norm(net, axis=1)
-    mags = [np.linalg.norm(kind.contacts.force[kind.owned_rows(nl)], axis=1) for kind in sim.kinds]
+    mags = [np.linalg.norm(kind.row_force(kind.owned_rows(nl)), axis=1) for kind in sim.kinds]
     mags = np.concatenate(mags) if mags else np.zeros(0)
     n_body = sim.comm.allreduce_sum_int(len(body))
     n_cont = sim.comm.allreduce_sum_int(len(mags))

@@ -105,14 +105,21 @@ def test_scrambled_rows_give_the_same_bits(domain):
 
 def test_state0_rows_are_clear():
     """ContactList invariant the force loop relies on: a row with state 0 has zero history and
-    zero outputs, after steps and right after a rebuild."""
+    zero outputs (rows, or a sphere pair's slots), after steps and right after a rebuild."""
     sim = box_scene().build()
     for _ in range(4):
         sim.run(60)
         for cl in (sim.kind("sphere_sphere").contacts, sim.kind("sphere_wall").contacts):
             off = np.flatnonzero(cl.state[: cl.n] == 0)
-            for arr in (cl.history, cl.force, cl.torque_i, cl.torque_j, cl.overlap):
+            outputs = (cl.force, cl.torque) if cl.row_outputs else ()
+            for arr in (cl.history, cl.overlap, *outputs):
                 assert not np.any(arr[off]), arr
+        pairs = sim.kind("sphere_sphere")  # the slots of a pair that is not a contact are clear
+        off = np.flatnonzero(pairs.contacts.state[: pairs.contacts.n] == 0)
+        for side in (0, 1):
+            s = pairs.slot[off, side]
+            s = s[s >= 0]
+            assert len(s) > 0 and not np.any(pairs.slot_f[s]) and not np.any(pairs.slot_t[s])
         sim.rebuild()
 
 
