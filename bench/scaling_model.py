@@ -2,7 +2,10 @@
 
     python -m bench.scaling_model [--length 6 --width 4 --depth 0.5]
     python -m bench.scaling_model --scene track --run1 RUN1 --run2 RUN2 [--png docs/scaling_track.png]
+    python -m bench.scaling_model --scene track --inputs bench/track_scaling.json [--png ...]  (runs' inputs
+        stored by the line above; the packing u, o measured again)
     python -m bench.scaling_model --packing G [G ...]   (u, o of the packing: numba vs numpy)
+    mpiexec -n 2 python -m bench.scaling_model --ghost-update N   (time per ghost update, messages included)
 
 Reads bench/results.json (MPI records, ranks 1 and 2, the largest size measured) and
 bench/pingpong.json (`python -m bench.pingpong` under mpiexec -n 2), and prints the model of
@@ -48,6 +51,7 @@ has twice that. It is compared with n_x h from the measured n_x and h = 2 r_max 
 import argparse
 import json
 import math
+import os
 from pathlib import Path
 
 import numpy as np
@@ -154,6 +158,46 @@ def packing_ab(argv=None):
                 print(f"  g = {g:6d}  {path:5s}  u = {u * 1e9:7.1f} ns per ghost-step  o = {o * 1e6:6.2f} us per step",
                       flush=True)
     return out
+
+
+def ghost_update_mpi(argv=None):
+    """``mpiexec -n 2 python -m bench.scaling_model --ghost-update N``: seconds per
+    `SlabDomain.update_ghosts` (packing, the two messages each way, unpacking) on the benchmark
+    bed of N spheres (`python -m bench`'s scene, one numba thread per rank), max over ranks, best
+    and median of 7 batches of ``--reps`` calls. The rank's own part of the exchange, not the
+    steps around it: the A/B of the packing with the messages included."""
+    import time
+
+    import numba
+
+    from bench.__main__ import bed, make_scene
+    from pdem.parallel.comm import get_comm
+
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--ghost-update", type=int, required=True, metavar="N")
+    ap.add_argument("--reps", type=int, default=2000)
+    args = ap.parse_args(argv)
+    numba.set_num_threads(1)
+    comm = get_comm()
+    pos, radius = bed(args.ghost_update)
+    sim = make_scene(pos, radius).build(comm=comm)
+    sim.run(50)  # warm-up, first migration and load balancing
+    d, p = sim.domain, sim.particles
+    for _ in range(50):
+        d.update_ghosts(p)
+    per_call = []
+    for _ in range(7):
+        comm.barrier()
+        t0 = time.perf_counter()
+        for _ in range(args.reps):
+            d.update_ghosts(p)
+        per_call.append(comm.allreduce_max(time.perf_counter() - t0) / args.reps)
+    ghosts = comm.allreduce_max(int(p.n_ghost))
+    if comm.rank == 0:
+        print(f"update_ghosts, {comm.size} ranks, {args.ghost_update} spheres, {ghosts} ghosts on the busier rank: "
+              f"best {min(per_call) * 1e6:.1f} us, median {float(np.median(per_call)) * 1e6:.1f} us per call "
+              f"({min(per_call) / max(ghosts, 1) * 1e9:.1f} ns per ghost); load average {os.getloadavg()}")
+    return per_call
 
 
 def model(argv=None):
@@ -271,8 +315,12 @@ def track_step(m, N, P, alpha, beta, c=None):
 
 
 def track_model(args):
-    m = track_inputs(args.run1, args.run2)
-    m["u"], m["o"] = measure_packing(int(m["g2"]), m["k"])
+    if args.inputs:  # the runs' inputs stored by an earlier --run1/--run2 model; packing re-measured
+        m = json.loads(Path(args.inputs).read_text())["inputs"]
+    else:
+        m = track_inputs(args.run1, args.run2)
+    m["u"], m["o"] = measure_packing(int(m["g2"]), m["k"], path=args.packing_path)
+    m["packing_path"], m["packing_load_average"] = args.packing_path, list(os.getloadavg())
     print(f"measured on the track section ({m['n']} bodies, {m['steps'][0]} / {m['steps'][1]} steps on 1 / 2 ranks, "
           f"load average {m['uptime']}):")
     print(f"  c_idle = {m['c_idle'] * 1e9:.1f} ns per sphere-step: the bed benchmark on an idle machine "
@@ -357,14 +405,20 @@ def main(argv=None):
     ap.add_argument("--scene", choices=("bed", "track"), default="bed")
     ap.add_argument("--run1", help="track: run directory of the 1-rank run (its scaling.json)")
     ap.add_argument("--run2", help="track: run directory of the 2-rank run")
+    ap.add_argument("--inputs", help="track: instead of --run1/--run2, the inputs stored in a track_scaling.json "
+                    "(u and o are measured again)")
     ap.add_argument("--png", help="track: write the efficiency plot there")
+    ap.add_argument("--packing-path", choices=("numba", "numpy"), default="numba",
+                    help="track: time u, o of this packing (numpy: the code before pdem.parallel.packing)")
     ap.add_argument("--ranks", type=int, nargs="+", default=None)
     args, rest = ap.parse_known_args(argv)
     if "--packing" in rest:
         return packing_ab(rest)
+    if "--ghost-update" in rest:
+        return ghost_update_mpi(rest)
     if args.scene == "track":
-        if not (args.run1 and args.run2):
-            raise SystemExit("--scene track needs --run1 and --run2")
+        if not (args.run1 and args.run2) and not args.inputs:
+            raise SystemExit("--scene track needs --run1 and --run2 (or --inputs bench/track_scaling.json)")
         args.ranks = args.ranks or [2, 16, 64, 256]
         return track_model(args)
     return model(rest + (["--ranks", *map(str, args.ranks)] if args.ranks else []))
