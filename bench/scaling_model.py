@@ -401,7 +401,7 @@ def plot_track(m, png):
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser()
+    ap = argparse.ArgumentParser(allow_abbrev=False)  # --packing is not --packing-path
     ap.add_argument("--scene", choices=("bed", "track"), default="bed")
     ap.add_argument("--run1", help="track: run directory of the 1-rank run (its scaling.json)")
     ap.add_argument("--run2", help="track: run directory of the 2-rank run")
