@@ -2,6 +2,10 @@
 
     python -m bench.scaling_model [--length 6 --width 4 --depth 0.5]
     python -m bench.scaling_model --scene track --run1 RUN1 --run2 RUN2 [--png docs/scaling_track.png]
+    python -m bench.scaling_model --scene track --inputs bench/track_scaling.json [--png ...]  (runs' inputs
+        stored by the line above; the packing u, o measured again)
+    python -m bench.scaling_model --packing G [G ...]   (u, o of the packing: numba vs numpy)
+    mpiexec -n 2 python -m bench.scaling_model --ghost-update N   (time per ghost update, messages included)
 
 Reads bench/results.json (MPI records, ranks 1 and 2, the largest size measured) and
 bench/pingpong.json (`python -m bench.pingpong` under mpiexec -n 2), and prints the model of
@@ -18,10 +22,12 @@ Model, per step, P ranks, slabs of thickness T = L/P along the track (x):
          printed too; on a machine shared with other jobs it measures contention, not ghosts.
   alpha, beta  latency and bandwidth of one message (pos, vel, angvel: 72 B per ghost)   [ping-pong]
   log2 P alpha the rebuild test (an allreduce of the max displacement) every step
-  u g    packing/unpacking the ghost update (numpy fancy indexing, 9 float64 per ghost)
-         plus the ghost-layer rebuild (`pack_rows`/`unpack_rows` of every FIELDS column) every
-         k steps (k from the benchmark's rebuild count), per ghost            [measured here, serial]
-  o      per rank-step fixed Python overhead of the exchange calls                [measured, serial]
+  u g    packing/unpacking the ghost update (numba kernels of `pdem.parallel.packing`, 9
+         float64 per ghost) plus the ghost-layer rebuild (`pack_fields` of every FIELDS column)
+         every k steps (k from the benchmark's rebuild count), per ghost   [measured here, serial]
+  o      per rank-step fixed Python overhead of the pack/unpack calls            [measured, serial]
+    python -m bench.scaling_model --packing 1978 2793 8600   times u, o of the numba path and of
+         the numpy path it replaced (alternating, 3 times): the A/B of docs/scaling.md
 The residual of the measured 2-rank communication time (waiting for the slower rank, load
 imbalance, CPU contention) is printed, not modelled.
 Efficiency E(P) = c N / (P t(N, P)). Interior slabs exist only while T >= h: P_max = L / h.
@@ -45,6 +51,7 @@ has twice that. It is compared with n_x h from the measured n_x and h = 2 r_max 
 import argparse
 import json
 import math
+import os
 from pathlib import Path
 
 import numpy as np
@@ -63,40 +70,134 @@ def load():
     return n, r1, r2, pp
 
 
-def measure_packing(g, k, reps=50):
-    """Seconds per ghost per step of the Python side of the exchange: (u, o)."""
+def measure_packing(g, k, reps=50, path="numba", repeats=5):
+    """Seconds per ghost per step of the Python side of the exchange: (u, o), measured serially.
+
+    Mirrors `SlabDomain.update_ghosts` (every step) and the ghost-layer rebuild (every k steps)
+    on a `Particles` of 4 g owned bodies with g ghosts, half from each neighbour, without the
+    messages (the received blocks are the packed ones). ``path``: "numba" (`pdem.parallel.
+    packing`: buffers kept between steps) or "numpy" (the code before it, for the A/B: the
+    concatenation of pos/vel/angvel rows and slice assignments every step, ``pack_rows(columns)``
+    and ``unpack_rows`` at rebuilds). Each time is the best of ``repeats`` batches of ``reps``.
+    u = (t_update(g) - t_update(2)) / g + t_rebuild(g) / (g k); o = t_update(2) (one row per list)."""
     import time
 
-    import numpy as np
-
+    from pdem.parallel.packing import GhostBuffers, field_views, pack_fields
     from pdem.parallel.slab_domain import pack_rows, unpack_rows
-    from pdem.state import FIELDS
+    from pdem.state import FIELDS, Particles
 
+    if path not in ("numba", "numpy"):
+        raise ValueError(f"path must be 'numba' or 'numpy', got {path!r}")
+    g = max(int(g), 2)
     n = max(4 * g, 1000)
     rng = np.random.default_rng(1)
-    pos, vel, w = rng.random((n, 3)), rng.random((n, 3)), rng.random((n, 3))
-    rows = np.sort(rng.choice(n, g, replace=False))
-    dst = np.zeros((n + g, 3))
+    p = Particles(n + g)
+    p.append_local({key: rng.random((n,) + shape).astype(dtype) for key, (dtype, shape) in FIELDS.items()})
+    rows = rng.choice(n, g, replace=False)  # send lists: unsorted, like after a spatial reorder
+    lists = (rows[: g // 2], rows[g // 2 :])
 
-    def update(rows):
-        buf = np.concatenate([pos[rows], vel[rows], w[rows]], axis=1)
-        dst[n : n + len(rows)] = buf[:, 0:3]
-        dst[n : n + len(rows)] = buf[:, 3:6]
-        dst[n : n + len(rows)] = buf[:, 6:9]
+    def ghost_update_numpy(lo, hi):  # main before packing.py: slab_domain.update_ghosts
+        def pack(r):
+            return np.concatenate([p.pos[r], p.vel[r], p.angvel[r]], axis=1)
+
+        a = p.n_local
+        for blk in (pack(lo), pack(hi)):
+            b = a + blk.shape[0]
+            p.pos[a:b], p.vel[a:b], p.angvel[a:b] = blk[:, 0:3], blk[:, 3:6], blk[:, 6:9]
+            a = b
+
+    def ghost_update_numba(gb):
+        gb.pack(p.pos, p.vel, p.angvel)
+        gb.unpack(p.pos, p.vel, p.angvel, p.n_local)
+
+    def ghost_layer(lo, hi):
+        if path == "numpy":
+            (li, lf), (hi_, hf) = pack_rows(p.columns(lo), lo.size), pack_rows(p.columns(hi), hi.size)
+            p.set_ghosts(unpack_rows(np.concatenate([li, hi_]), np.concatenate([lf, hf])))
+        else:
+            (li, lf), (hi_, hf) = pack_fields(vars(p), lo), pack_fields(vars(p), hi)
+            p.set_ghosts(field_views(np.concatenate([li, hi_]), np.concatenate([lf, hf])))
 
     def timed(f, *a):
         f(*a)
-        t0 = time.perf_counter()
-        for _ in range(reps):
-            f(*a)
-        return (time.perf_counter() - t0) / reps
+        best = math.inf
+        for _ in range(repeats):
+            t0 = time.perf_counter()
+            for _ in range(reps):
+                f(*a)
+            best = min(best, (time.perf_counter() - t0) / reps)
+        return best
 
-    t_upd = timed(update, rows)
-    t_fixed = timed(update, rows[:1])
-    cols = {key: np.zeros((g,) + shape, dtype) for key, (dtype, shape) in FIELDS.items()}
-    t_reb = timed(lambda: unpack_rows(*pack_rows(cols, g)))
-    u = (t_upd - t_fixed) / g + t_reb / g / k
-    return u, 4 * t_fixed  # 2 neighbour messages each way per step: 4 small pack/unpack calls
+    ghost_layer(*lists)  # ghost rows exist (n_ghost = g) for the updates
+    if path == "numpy":
+        t_upd = timed(ghost_update_numpy, *lists)
+        t_fixed = timed(ghost_update_numpy, lists[0][:1], lists[1][:1])
+    else:
+        gb, gb1 = GhostBuffers(), GhostBuffers()
+        gb.set_lists(lists[0], lists[1], lists[0].size, lists[1].size)
+        gb1.set_lists(lists[0][:1], lists[1][:1], 1, 1)
+        t_upd = timed(ghost_update_numba, gb)
+        t_fixed = timed(ghost_update_numba, gb1)
+    t_reb = timed(ghost_layer, *lists)
+    return (t_upd - t_fixed) / g + t_reb / g / k, t_fixed
+
+
+def packing_ab(argv=None):
+    """``python -m bench.scaling_model --packing G [G ...]``: u, o of both paths (the A/B)."""
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--packing", type=int, nargs="+", required=True, help="ghost counts per rank")
+    ap.add_argument("--k", type=float, default=24.0, help="steps per ghost-layer rebuild")
+    ap.add_argument("--repeats", type=int, default=3, help="alternations numpy/numba")
+    args = ap.parse_args(argv)
+    out = []
+    for g in args.packing:
+        for rep in range(args.repeats):
+            for path in ("numpy", "numba"):
+                u, o = measure_packing(g, args.k, path=path)
+                out.append({"g": g, "path": path, "repeat": rep, "u_ns": u * 1e9, "o_us": o * 1e6})
+                print(f"  g = {g:6d}  {path:5s}  u = {u * 1e9:7.1f} ns per ghost-step  o = {o * 1e6:6.2f} us per step",
+                      flush=True)
+    return out
+
+
+def ghost_update_mpi(argv=None):
+    """``mpiexec -n 2 python -m bench.scaling_model --ghost-update N``: seconds per
+    `SlabDomain.update_ghosts` (packing, the two messages each way, unpacking) on the benchmark
+    bed of N spheres (`python -m bench`'s scene, one numba thread per rank), max over ranks, best
+    and median of 7 batches of ``--reps`` calls. The rank's own part of the exchange, not the
+    steps around it: the A/B of the packing with the messages included."""
+    import time
+
+    import numba
+
+    from bench.__main__ import bed, make_scene
+    from pdem.parallel.comm import get_comm
+
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--ghost-update", type=int, required=True, metavar="N")
+    ap.add_argument("--reps", type=int, default=2000)
+    args = ap.parse_args(argv)
+    numba.set_num_threads(1)
+    comm = get_comm()
+    pos, radius = bed(args.ghost_update)
+    sim = make_scene(pos, radius).build(comm=comm)
+    sim.run(50)  # warm-up, first migration and load balancing
+    d, p = sim.domain, sim.particles
+    for _ in range(50):
+        d.update_ghosts(p)
+    per_call = []
+    for _ in range(7):
+        comm.barrier()
+        t0 = time.perf_counter()
+        for _ in range(args.reps):
+            d.update_ghosts(p)
+        per_call.append(comm.allreduce_max(time.perf_counter() - t0) / args.reps)
+    ghosts = comm.allreduce_max(int(p.n_ghost))
+    if comm.rank == 0:
+        print(f"update_ghosts, {comm.size} ranks, {args.ghost_update} spheres, {ghosts} ghosts on the busier rank: "
+              f"best {min(per_call) * 1e6:.1f} us, median {float(np.median(per_call)) * 1e6:.1f} us per call "
+              f"({min(per_call) / max(ghosts, 1) * 1e9:.1f} ns per ghost); load average {os.getloadavg()}")
+    return per_call
 
 
 def model(argv=None):
@@ -214,8 +315,12 @@ def track_step(m, N, P, alpha, beta, c=None):
 
 
 def track_model(args):
-    m = track_inputs(args.run1, args.run2)
-    m["u"], m["o"] = measure_packing(int(m["g2"]), m["k"])
+    if args.inputs:  # the runs' inputs stored by an earlier --run1/--run2 model; packing re-measured
+        m = json.loads(Path(args.inputs).read_text())["inputs"]
+    else:
+        m = track_inputs(args.run1, args.run2)
+    m["u"], m["o"] = measure_packing(int(m["g2"]), m["k"], path=args.packing_path)
+    m["packing_path"], m["packing_load_average"] = args.packing_path, list(os.getloadavg())
     print(f"measured on the track section ({m['n']} bodies, {m['steps'][0]} / {m['steps'][1]} steps on 1 / 2 ranks, "
           f"load average {m['uptime']}):")
     print(f"  c_idle = {m['c_idle'] * 1e9:.1f} ns per sphere-step: the bed benchmark on an idle machine "
@@ -296,16 +401,24 @@ def plot_track(m, png):
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser()
+    ap = argparse.ArgumentParser(allow_abbrev=False)  # --packing is not --packing-path
     ap.add_argument("--scene", choices=("bed", "track"), default="bed")
     ap.add_argument("--run1", help="track: run directory of the 1-rank run (its scaling.json)")
     ap.add_argument("--run2", help="track: run directory of the 2-rank run")
+    ap.add_argument("--inputs", help="track: instead of --run1/--run2, the inputs stored in a track_scaling.json "
+                    "(u and o are measured again)")
     ap.add_argument("--png", help="track: write the efficiency plot there")
+    ap.add_argument("--packing-path", choices=("numba", "numpy"), default="numba",
+                    help="track: time u, o of this packing (numpy: the code before pdem.parallel.packing)")
     ap.add_argument("--ranks", type=int, nargs="+", default=None)
     args, rest = ap.parse_known_args(argv)
+    if "--packing" in rest:
+        return packing_ab(rest)
+    if "--ghost-update" in rest:
+        return ghost_update_mpi(rest)
     if args.scene == "track":
-        if not (args.run1 and args.run2):
-            raise SystemExit("--scene track needs --run1 and --run2")
+        if not (args.run1 and args.run2) and not args.inputs:
+            raise SystemExit("--scene track needs --run1 and --run2 (or --inputs bench/track_scaling.json)")
         args.ranks = args.ranks or [2, 16, 64, 256]
         return track_model(args)
     return model(rest + (["--ranks", *map(str, args.ranks)] if args.ranks else []))

@@ -40,6 +40,8 @@ _FAILURE_COMMS = {}  # communicator handle -> its duplicate for agree_on_failure
 
 _TAG_LO = 71  # neighbour_exchange: messages travelling towards rank - 1
 _TAG_HI = 73  # ... towards rank + 1 (each uses tag and tag + 1)
+_TAG_LO_SIZED = 75  # neighbour_exchange into given receive buffers (no size message): towards rank - 1
+_TAG_HI_SIZED = 76  # ... towards rank + 1
 
 
 # --------------------------------------------------------------------------- helpers
@@ -94,6 +96,14 @@ def _groups_args(values, group, n_groups):
     if g.shape[0] != v.shape[0] or (g.size and (g.min() < 0 or g.max() >= n_groups)):
         raise ValueError(f"exact_sum_groups: {g.shape[0]} group ids in [0, {n_groups}) needed for {v.shape[0]} rows")
     return v, g, v.shape[1]
+
+
+def _check_recv(recv_lo, recv_hi):
+    """Receive buffers of `neighbor_exchange`: both given, C-contiguous, writeable."""
+    for name, r in (("recv_lo", recv_lo), ("recv_hi", recv_hi)):
+        if not isinstance(r, np.ndarray) or not r.flags.c_contiguous or not r.flags.writeable:
+            raise TypeError(f"neighbor_exchange: {name} must be a writeable C-contiguous numpy array "
+                            f"(or both None), got {type(r).__name__}")
 
 
 def _cpu_set():
@@ -160,7 +170,14 @@ class SerialComm:
         a, _ = _rows_array(array)
         return a.copy()
 
-    def neighbor_exchange(self, send_lo, send_hi):
+    def neighbor_exchange(self, send_lo, send_hi, recv_lo=None, recv_hi=None):
+        if recv_lo is not None or recv_hi is not None:
+            _check_recv(recv_lo, recv_hi)
+            for r in (recv_lo, recv_hi):
+                if r.shape[0]:
+                    raise RuntimeError(f"neighbor_exchange: a receive buffer of {r.shape[0]} rows on a single "
+                                       "slab (no neighbour sends anything)")
+            return recv_lo, recv_hi
         lo, mlo = _rows_array(send_lo)
         hi, mhi = _rows_array(send_hi)
         return _empty_rows(mlo), _empty_rows(mhi)
@@ -308,20 +325,50 @@ class MpiComm:
         self.comm.Sendrecv(a, dest, tag + 1, recv, source, tag + 1)
         return recv
 
-    def neighbor_exchange(self, send_lo, send_hi):
+    def _shift_into(self, send, dest, recv, source, tag):
+        """Send ``send`` to ``dest`` and receive into ``recv`` from ``source``: the number of
+        values received, or None if that is ``recv.size``."""
+        status = self._MPI.Status()
+        self.comm.Sendrecv(send, dest, tag, recv, source, tag, status=status)
+        got = status.Get_count(self._datatype(recv.dtype)) if source != self._MPI.PROC_NULL else 0
+        return None if got == recv.size else got
+
+    def _datatype(self, dtype):
+        """The predefined MPI datatype mpi4py uses for a numpy buffer of this dtype."""
+        return self._MPI.Datatype.fromcode(dtype.char)
+
+    def neighbor_exchange(self, send_lo, send_hi, recv_lo=None, recv_hi=None):
         """Exchange rows with the neighbouring slabs of a 1-D chain of ranks.
 
         Parameters
         ----------
         send_lo, send_hi : numeric arrays, rows along axis 0 (typically 2-D float64 or int64)
             Rows for rank - 1 and rank + 1 (ignored at the ends of the chain).
+        recv_lo, recv_hi : C-contiguous arrays, optional (both or neither)
+            Receive into these (the dtype and row shape the neighbours send, exactly as many
+            rows as they send; 0 rows at the ends of the chain): one message per direction, no
+            size message and no allocation. Each pair of neighbours must both use this form (the
+            slab domain's ghost update, whose counts are known from the last ghost-layer
+            rebuild). A count that differs from the buffer's raises (RuntimeError, or MPI's
+            truncation error for more).
 
         Returns
         -------
         recv_from_lo, recv_from_hi : arrays
             What rank - 1 sent as its ``send_hi`` and rank + 1 as its ``send_lo``; empty arrays
-            (with this rank's own column count and dtype) at the ends of the chain.
+            (with this rank's own column count and dtype) at the ends of the chain. With
+            ``recv_lo``/``recv_hi``: those arrays, filled.
         """
+        if recv_lo is not None or recv_hi is not None:
+            _check_recv(recv_lo, recv_hi)
+            bad_hi = self._shift_into(np.ascontiguousarray(send_lo), self._lo, recv_hi, self._hi, _TAG_LO_SIZED)
+            bad_lo = self._shift_into(np.ascontiguousarray(send_hi), self._hi, recv_lo, self._lo, _TAG_HI_SIZED)
+            for got, recv, source in ((bad_lo, recv_lo, self._lo), (bad_hi, recv_hi, self._hi)):
+                if got is not None:  # raised after both messages: the neighbours are not left waiting
+                    raise RuntimeError(
+                        f"neighbor_exchange: received {got} values from rank {source}, expected {recv.size} "
+                        f"({recv.shape[0]} rows of the receive buffer): the two ranks' row counts disagree")
+            return recv_lo, recv_hi
         recv_from_hi = self._shift(send_lo, self._lo, self._hi, _TAG_LO)
         recv_from_lo = self._shift(send_hi, self._hi, self._lo, _TAG_HI)
         return recv_from_lo, recv_from_hi

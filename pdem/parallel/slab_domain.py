@@ -15,8 +15,10 @@ its owned bodies in partner-gid order (`pdem.forces`); so no force is ever sent 
 only decides who computes what, never a number, so moving edges does not change any bit.
 
 Talks to MPI only through a ``pdem.parallel.comm`` communicator (numpy buffers: ``neighbor_
-exchange``, ``allgather_rows``, integer reductions); imports no mpi4py. The pure helpers
-(`pack_rows`, `unpack_rows`, `contact_gids`, `migrating_contacts`) are unit-tested without MPI.
+exchange``, ``allgather_rows``, integer reductions); imports no mpi4py. The copies between the
+particle arrays and the messages are numba kernels of `pdem.parallel.packing` (the per-step ghost
+update packs into and receives into buffers kept between steps). The pure helpers (`pack_rows`,
+`unpack_rows`, `contact_gids`, `migrating_contacts`) are unit-tested without MPI.
 """
 import time as _time
 
@@ -26,17 +28,18 @@ from pdem.clumps import unpack_clumps
 from pdem.contacts import KEY_SHIFT_INDEX, KEY_SHIFT_SPHERE
 from pdem.errors import InputError
 from pdem.parallel import slabs
+from pdem.parallel.packing import FLOAT_FIELDS, INT_FIELDS, GhostBuffers, field_views, pack_fields
 from pdem.state import FIELDS
 
 __all__ = ["SlabDomain", "contact_gids", "migrating_contacts", "pack_rows", "unpack_rows"]
 
-_INT_FIELDS = [k for k, (dt, _) in FIELDS.items() if np.dtype(dt).kind in "iu"]
-_FLOAT_FIELDS = [k for k, (dt, _) in FIELDS.items() if np.dtype(dt).kind == "f"]
+_INT_FIELDS, _FLOAT_FIELDS = INT_FIELDS, FLOAT_FIELDS
 
 
 # --------------------------------------------------------------------------- pure helpers
 def pack_rows(cols, n=None):
-    """FIELDS columns -> (int64[n, ki], float64[n, kf]) blocks, one row per body."""
+    """FIELDS columns -> (int64[n, ki], float64[n, kf]) blocks, one row per body (the domain packs
+    the particle arrays directly with `packing.pack_fields`: the same bits)."""
     if n is None:
         n = len(cols["gid"])
     def width(k):
@@ -122,6 +125,7 @@ class SlabDomain:
         self.send_hi = np.zeros(0, np.int64)  # ... on rank + 1
         self.n_from_lo = 0  # ghost rows [n_local, n_local + n_from_lo) came from rank - 1
         self.n_from_hi = 0
+        self._ghost_buffers = GhostBuffers()  # the per-step update's send list and buffers
         self.n_migrated = 0  # bodies this rank sent away, cumulative
         self.n_rebalanced = 0  # edge moves, cumulative (same on every rank)
 
@@ -288,8 +292,7 @@ class SlabDomain:
         mig_gid, mig_dest = p.gid[mig], dest[mig]
         self.n_migrated += int(mig.size)
         # bodies
-        bi, bf = pack_rows(p.columns(mig), mig.size)
-        bi = np.concatenate([mig_dest[:, None].astype(np.int64), bi], axis=1)
+        bi, bf = pack_fields(vars(p), mig, lead=mig_dest)  # [dest, ints...], floats
         # contacts: every real row that involves a migrating body
         parcels = []
         for kind in sim.kinds:
@@ -303,7 +306,7 @@ class SlabDomain:
         p.remove_local(leave)
         ri, rf = self._route(bi, bf)
         if ri.shape[0]:
-            p.append_local(unpack_rows(ri[:, 1:], rf))
+            p.append_local(field_views(ri[:, 1:], rf))
         if sim.clumps is not None:  # the clump bodies go where their members went
             self._migrate_clumps(sim.clumps)
         for cl, ci, cf in parcels:
@@ -343,12 +346,13 @@ class SlabDomain:
         # at 200k was 1.5-1.8 instead of 1.9-2.0)
         self.send_lo = np.flatnonzero((dest[:, 0] == rank - 1) & (dest[:, 0] >= 0)).astype(np.int64)
         self.send_hi = np.flatnonzero((dest[:, 1] == rank + 1) & (dest[:, 1] >= 0)).astype(np.int64)
-        lo_i, lo_f = pack_rows(p.columns(self.send_lo), self.send_lo.size)
-        hi_i, hi_f = pack_rows(p.columns(self.send_hi), self.send_hi.size)
+        lo_i, lo_f = pack_fields(vars(p), self.send_lo)
+        hi_i, hi_f = pack_fields(vars(p), self.send_hi)
         ri_lo, ri_hi = self.comm.neighbor_exchange(lo_i, hi_i)
         rf_lo, rf_hi = self.comm.neighbor_exchange(lo_f, hi_f)
         self.n_from_lo, self.n_from_hi = ri_lo.shape[0], ri_hi.shape[0]
-        p.set_ghosts(unpack_rows(np.concatenate([ri_lo, ri_hi]), np.concatenate([rf_lo, rf_hi])))
+        p.set_ghosts(field_views(np.concatenate([ri_lo, ri_hi]), np.concatenate([rf_lo, rf_hi])))
+        self._ghost_buffers.set_lists(self.send_lo, self.send_hi, self.n_from_lo, self.n_from_hi)
 
     def renumber_owned(self, order):
         """The owned rows were permuted after `rebuild` (new row k = old row ``order[k]``,
@@ -359,23 +363,19 @@ class SlabDomain:
         new_of_old[order] = np.arange(order.size, dtype=np.int64)
         self.send_lo = new_of_old[self.send_lo]
         self.send_hi = new_of_old[self.send_hi]
+        self._ghost_buffers.set_lists(self.send_lo, self.send_hi, self.n_from_lo, self.n_from_hi)
 
     # ------------------------------------------------------------------ every step
     def update_ghosts(self, particles):
-        """Send pos/vel/angvel of the send lists to the neighbours; overwrite the ghost rows."""
+        """Send pos/vel/angvel of the send lists to the neighbours; overwrite the ghost rows.
+
+        Messages: 9 float64 per row of ``send_lo`` (to rank - 1) and ``send_hi`` (to rank + 1),
+        in list order; packed, received and unpacked in buffers kept since the last ghost-layer
+        rebuild (`packing.GhostBuffers`: nothing is allocated here)."""
         t0 = _time.perf_counter()
         p = particles
-
-        def pack(rows):
-            return np.concatenate([p.pos[rows], p.vel[rows], p.angvel[rows]], axis=1)
-
-        r_lo, r_hi = self.comm.neighbor_exchange(pack(self.send_lo), pack(self.send_hi))
-        if r_lo.shape[0] != self.n_from_lo or r_hi.shape[0] != self.n_from_hi:
-            raise RuntimeError(f"ghost update: received {r_lo.shape[0]}/{r_hi.shape[0]} rows from rank-1/rank+1, "
-                               f"expected {self.n_from_lo}/{self.n_from_hi} (send lists out of step)")
-        a = p.n_local
-        for r in (r_lo, r_hi):
-            b = a + r.shape[0]
-            p.pos[a:b], p.vel[a:b], p.angvel[a:b] = r[:, 0:3], r[:, 3:6], r[:, 6:9]
-            a = b
+        gb = self._ghost_buffers
+        gb.pack(p.pos, p.vel, p.angvel)
+        self.comm.neighbor_exchange(gb.send_lo, gb.send_hi, gb.recv_lo, gb.recv_hi)
+        gb.unpack(p.pos, p.vel, p.angvel, p.n_local)
         self.comm_seconds += _time.perf_counter() - t0

@@ -168,6 +168,29 @@ def test_neighbor_exchange(comm):
     assert all_ranks(comm, ok_lo and ok_hi)
 
 
+def test_neighbor_exchange_into_buffers(comm):
+    """With receive buffers (the ghost update's form): the same rows as the allocating form,
+    received into the given arrays; a buffer of the wrong size raises on its rank only, after
+    both messages (no rank is left waiting)."""
+    r, size = comm.rank, comm.size
+    n_lo, n_hi = r + 1, 2 * r + 3
+    send_lo, send_hi = payload(r, r - 1, n_lo, 9), payload(r, r + 1, n_hi, 9)
+    want_lo, want_hi = comm.neighbor_exchange(send_lo, send_hi)
+    buf = np.full((want_lo.shape[0] + want_hi.shape[0] + 2, 9), -1.0)
+    recv_lo, recv_hi = buf[: want_lo.shape[0]], buf[want_lo.shape[0] : want_lo.shape[0] + want_hi.shape[0]]
+    got_lo, got_hi = comm.neighbor_exchange(send_lo, send_hi, recv_lo, recv_hi)
+    ok = got_lo is recv_lo and got_hi is recv_hi
+    ok &= np.array_equal(recv_lo, want_lo) and np.array_equal(recv_hi, want_hi) and np.all(buf[-2:] == -1.0)
+    assert all_ranks(comm, ok)
+    too_many = np.zeros((want_lo.shape[0] + 1, 9))  # expects a row more than rank - 1 sends
+    if r > 0:
+        with pytest.raises(RuntimeError, match="disagree"):
+            comm.neighbor_exchange(send_lo, send_hi, too_many, np.zeros_like(want_hi))
+    else:
+        comm.neighbor_exchange(send_lo, send_hi, np.zeros((0, 9)), np.zeros_like(want_hi))
+    assert all_ranks(comm, size >= 1)
+
+
 def test_neighbor_exchange_round_trip_int64(comm):
     r = comm.rank
     rng = np.random.default_rng(100 + r)
