@@ -20,7 +20,9 @@ One `ContactList` per contact kind (sphere–sphere, sphere–wall, sphere–fac
 History survives neighbour-list rebuilds and migration because it is looked up by ``key``.
 """
 import numpy as np
-from numba import njit
+from numba import njit, prange
+
+from .kernels import kernel
 
 KEY_SHIFT_SPHERE = 32
 KEY_SHIFT_INDEX = 20
@@ -164,7 +166,7 @@ def carry_history(n_old, old_key, old_state, old_params, old_hist, n_new, new_ke
             s = (s + 1) & mask
 
 
-@njit(cache=True)
+@kernel(size_arg=5)
 def carry_history_by_first(n_old, old_key, old_state, old_params, old_hist, n_new, new_key, shift, new_state,
                            new_params, new_hist):
     """`carry_history` without a hash table, for keys whose high part ``key >> shift`` is the
@@ -191,7 +193,7 @@ def carry_history_by_first(n_old, old_key, old_state, old_params, old_hist, n_ne
             g = old_key[p] >> shift
             nxt[p] = head[g]
             head[g] = p
-    for q in range(n_new):
+    for q in prange(n_new):  # each new row reads the chains and writes only its own row
         k = new_key[q]
         g = k >> shift
         if g < 0 or g > g_max:

@@ -170,7 +170,7 @@ def build_sphere_pairs(pos, radius, gid, n_local, n_total, skin, cell_size, max_
     return pi, pj
 
 
-@njit(cache=True)
+@kernel()
 def build_incidence(n_local, n_pairs, pi, pj, gid):
     """Per owned body, its sphere pairs sorted by partner gid (CSR).
 
@@ -205,7 +205,7 @@ def build_incidence(n_local, n_pairs, pi, pj, gid):
             first[k] = 0
             pg[k] = gid[i]
             fill[j] = k + 1
-    for b in range(n_local):
+    for b in prange(n_local):  # the sort of each body's entries touches only its own range
         a = ptr[b]
         e = ptr[b + 1]
         for k in range(a + 1, e):
