@@ -12,7 +12,7 @@ SPEC 2.3; `pdem.clump_generators.ballast8`, randomly turned, settled once and ca
 materials, damping and walls; ``particle_steps_per_s`` counts member-steps, and
 ``per_member_ratio`` is that over the sphere bed of the same N and threads.
 
-    python -m bench [--sizes 10000 50000] [--clump-sizes 50000] [--threads 1 2] [--steps 200]
+    python -m bench [--sizes 10000 50000 200000] [--clump-sizes 50000] [--threads 1 2] [--steps 200]
     python -m bench --mpi [--mpi-sizes 50000 200000] [--ranks 1 2] [--steps 300]
 
 ``--mpi``: the slab-decomposed code (slabs along x, the long axis of the box) on 1 and 2 ranks,
@@ -390,7 +390,7 @@ def main_mpi(args):
 
 def main(argv=None):
     ap = argparse.ArgumentParser(prog="python -m bench", description=__doc__.split("\n\n")[0])
-    ap.add_argument("--sizes", type=int, nargs="+", default=[10000, 50000])
+    ap.add_argument("--sizes", type=int, nargs="+", default=[10000, 50000, 200000])
     ap.add_argument("--threads", type=int, nargs="+", default=[1, 2])
     ap.add_argument("--steps", type=int, default=300)
     ap.add_argument("--mpi", action="store_true", help="run the MPI cases (1 vs 2 ranks) instead")
@@ -418,7 +418,7 @@ def main(argv=None):
         print("RESULT " + json.dumps(run_clump_case(args.one_clumps[0], args.one_clumps[1], args.steps)), flush=True)
         return 0
     records = []
-    cases = [("--one", n, settled_bed) for n in args.sizes] + [("--one-clumps", n, settled_clump_bed)
+    cases = [("--one", n, bed) for n in args.sizes] + [("--one-clumps", n, settled_clump_bed)
                                                                 for n in args.clump_sizes]
     for flag, n, prepare in cases:
         prepare(n)

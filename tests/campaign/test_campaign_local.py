@@ -128,8 +128,10 @@ values = [1, 2, 3]
 
 def test_two_rank_member_stops_and_resumes(tmp_path, tiny):
     """A member on 2 ranks (the venv's mpiexec): SIGTERM to the runner reaches the ranks through
-    their process group; exit 3, then the same command resumes it to the end."""
-    p = write_campaign(tmp_path, '[set]\n"run.steps" = 1000\n[seeds]\nvalues = [7]\n', head="ranks = 2")
+    their process group; exit 3, then the same command resumes it to the end. (20 000 steps: 1000
+    steps of the tiny scene took under a second on 2 ranks, and the member finished before the
+    signal reached it.)"""
+    p = write_campaign(tmp_path, '[set]\n"run.steps" = 20000\n[seeds]\nvalues = [7]\n', head="ranks = 2")
     out = tmp_path / "runs" / "camp"
     env = dict(os.environ, OMP_NUM_THREADS="1", MPLBACKEND="Agg")
     proc = subprocess.Popen([sys.executable, "-m", "pdem", "campaign", "run", str(p), "--cores", "2"],
