@@ -33,8 +33,6 @@ from pdem.state import FIELDS
 
 __all__ = ["SlabDomain", "contact_gids", "migrating_contacts", "pack_rows", "unpack_rows"]
 
-_INT_FIELDS, _FLOAT_FIELDS = INT_FIELDS, FLOAT_FIELDS
-
 
 # --------------------------------------------------------------------------- pure helpers
 def pack_rows(cols, n=None):
@@ -45,23 +43,14 @@ def pack_rows(cols, n=None):
     def width(k):
         return int(np.prod(FIELDS[k][1], dtype=np.int64))
 
-    ints = [np.asarray(cols[k]).reshape(n, width(k)).astype(np.int64) for k in _INT_FIELDS]
-    flts = [np.asarray(cols[k]).reshape(n, width(k)).astype(np.float64) for k in _FLOAT_FIELDS]
+    ints = [np.asarray(cols[k]).reshape(n, width(k)).astype(np.int64) for k in INT_FIELDS]
+    flts = [np.asarray(cols[k]).reshape(n, width(k)).astype(np.float64) for k in FLOAT_FIELDS]
     return np.concatenate(ints, axis=1), np.concatenate(flts, axis=1)
 
 
 def unpack_rows(ints, floats):
     """Inverse of `pack_rows`: a dict of FIELDS columns (copies) with their trailing shapes."""
-    n = ints.shape[0]
-    out = {}
-    for block, names in ((ints, _INT_FIELDS), (floats, _FLOAT_FIELDS)):
-        c = 0
-        for k in names:
-            dtype, shape = FIELDS[k]
-            w = int(np.prod(shape, dtype=np.int64))
-            out[k] = block[:, c : c + w].reshape((n,) + shape).astype(dtype)
-            c += w
-    return out
+    return {k: np.array(v) for k, v in field_views(ints, floats).items()}
 
 
 def contact_gids(key, sphere_pair):
