@@ -4,8 +4,8 @@ choice of numba's threading layer.
 
 Threading layer: GNU OpenMP (``omp``) when numba can load it (gcc's libgomp), else
 ``workqueue``; an explicit ``NUMBA_THREADING_LAYER`` wins. A parallel launch costs ~3 µs with
-omp and ~30 µs with workqueue on the 2-core bench machine (`bench.kernel_threads`), which is
-what made two threads slower than one on small scenes. omp threads spin briefly after a region:
+omp and ~30 µs with workqueue on the 2-core bench machine (2000 launches of a 4096-element
+prange), which is what made two threads slower than one on small scenes. omp threads spin briefly after a region:
 keep ranks × threads within the cores (`pdem.parallel.comm.configure_threads` does so).
 A call runs the serial twin when the work (the argument at `size_arg`) is below `PARALLEL_MIN`
 or numba has one thread, so single-threaded ranks never start a thread pool. Both twins
