@@ -1,4 +1,4 @@
-"""The local runner on tiny members (50 spheres, a few hundred to 2000 steps, 1 rank each, two at
+"""The local runner on tiny members (50 spheres, a few hundred to 20 000 steps, 1 rank each, two at
 a time): a failing member does not stop the others; SIGTERM to the runner stops the running
 members with a checkpoint (exit 3), a second ``campaign run`` resumes them, and every member's
 results.h5 equals that of an uninterrupted campaign bit for bit."""
@@ -77,10 +77,11 @@ def series(path):
 
 
 def test_sigterm_then_resume_gives_the_uninterrupted_results(tmp_path, tiny):
+    """(20 000 steps per member: at 2000 both running members could finish before SIGTERM.)"""
     p = write_campaign(tmp_path, """
 [set]
-"run.steps" = 2000
-"run.checkpoint_every" = 500
+"run.steps" = 20000
+"run.checkpoint_every" = 5000
 [seeds]
 values = [1, 2, 3]
 """, head="[local]\ncores = 2")
@@ -106,7 +107,7 @@ values = [1, 2, 3]
     for n in stopped:
         assert st[n]["exit"] == 3
         ckpts = sorted((out / n / "checkpoints").glob("ckpt_*.h5"))
-        assert ckpts and int(ckpts[-1].stem.split("_")[1]) < 2000
+        assert ckpts and int(ckpts[-1].stem.split("_")[1]) < 20000
     r = pdem_campaign("run", p)
     assert r.returncode == 0, r.stdout + r.stderr
     assert f"{1 + len(stopped)} to run ({len(stopped)} resume from a checkpoint)" in r.stdout
@@ -119,7 +120,7 @@ values = [1, 2, 3]
     assert r.returncode == 0, r.stdout + r.stderr
     for n in ("seed-1", "seed-2", "seed-3"):
         got, want = series(out / n / "results.h5"), series(ref / n / "results.h5")
-        assert sorted(got) == sorted(want) and want["step"][-1] == 2000
+        assert sorted(got) == sorted(want) and want["step"][-1] == 20000
         for k in want:
             assert got[k].dtype == want[k].dtype and np.array_equal(got[k], want[k]), (n, k)
             assert got[k].tobytes() == want[k].tobytes(), (n, k)

@@ -158,8 +158,9 @@ def test_usr1_at_the_wall_time_is_forwarded_and_requeues(tmp_path, tiny):
 
 def test_real_pdem_through_srun_stops_and_resumes(tmp_path, tiny):
     """The fake srun runs the real ``pdem run`` (1 rank): USR1 -> checkpoint, exit 3, requeue; the
-    requeued task resumes from the checkpoint and finishes."""
-    p = write_campaign(tmp_path, '[set]\n"run.steps" = 2000\n[seeds]\nvalues = [5]\n')
+    requeued task resumes from the checkpoint and finishes. (20 000 steps: the signal passes
+    through the fake srun and the member runner, and 2000 tiny steps can end before it arrives.)"""
+    p = write_campaign(tmp_path, '[set]\n"run.steps" = 20000\n[seeds]\nvalues = [5]\n')
     assert pdem_campaign("slurm", p).returncode == 0
     out = tmp_path / "runs" / "camp"
     script = out / "campaign.sbatch"
@@ -183,5 +184,5 @@ def test_real_pdem_through_srun_stops_and_resumes(tmp_path, tiny):
     assert r.returncode == 0, r.stdout + r.stderr
     assert "resuming from" in log.read_text()
     with h5py.File(out / "seed-5" / "results.h5") as f:
-        assert f["series"]["step"][-1] == 2000
+        assert f["series"]["step"][-1] == 20000
     assert sys.executable in script.read_text()
