@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 
 from pdem_cli import MPIEXEC, run_pdem
+from scene_text import BOX_MATERIALS
 from pdem.io.checkpoint import list_checkpoints, read_checkpoint
 
 # slow: 3 short box tests on 1 rank, 2 on 2 ranks and a resume on 3 (4-8 min on a loaded 2-core machine)
@@ -34,24 +35,7 @@ output_every = 10
 snapshot_every = 0
 checkpoint_keep = 0
 
-[materials.ballast]
-density = 2600.0
-young = 2.8e6
-poisson = 0.3
-friction_angle = 0.5
-
-[materials.steel]
-density = 7850.0
-young = 2.8e7
-poisson = 0.25
-friction_angle = 0.5
-
-[materials.rubber]
-density = 1000.0
-young = 2.8e5
-poisson = 0.5
-friction_angle = 0.7
-
+""" + BOX_MATERIALS + """
 [box_test]
 box = [0.24, 0.1, 0.2]
 radius = 0.0125

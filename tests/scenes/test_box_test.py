@@ -19,6 +19,7 @@ import pytest
 
 from analysis.io import read_box_test
 from pdem_cli import MPIEXEC, pdem_cmd, run_pdem
+from scene_text import BOX_MATERIALS
 from pdem.io.checkpoint import list_checkpoints, read_checkpoint
 
 # slow: whole box tests through `pdem run` subprocesses on 1, 2 and 3 ranks (minutes)
@@ -36,24 +37,7 @@ output_every = 25
 snapshot_every = 2000
 checkpoint_keep = 0
 
-[materials.ballast]
-density = 2600.0
-young = 2.8e6
-poisson = 0.3
-friction_angle = 0.5
-
-[materials.steel]
-density = 7850.0
-young = 2.8e7
-poisson = 0.25
-friction_angle = 0.5
-
-[materials.rubber]
-density = 1000.0
-young = 2.8e5
-poisson = 0.5
-friction_angle = 0.7
-
+""" + BOX_MATERIALS + """
 [box_test]
 box = [0.35, 0.15, 0.26]
 radius = 0.0125

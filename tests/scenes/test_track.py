@@ -22,6 +22,7 @@ import pytest
 from analysis.track import analyse_track, passage_table
 from analysis.groups import read_track
 from pdem_cli import MPIEXEC, run_pdem
+from scene_text import BOX_MATERIALS
 from pdem.io.checkpoint import list_checkpoints, read_checkpoint
 from pdem.loads import rail_seat_share
 
@@ -37,24 +38,7 @@ snapshot_every = 1000
 checkpoint_every = 1000
 checkpoint_keep = 0
 
-[materials.ballast]
-density = 2600.0
-young = 2.8e6
-poisson = 0.3
-friction_angle = 0.5
-
-[materials.steel]
-density = 7850.0
-young = 2.8e7
-poisson = 0.25
-friction_angle = 0.5
-
-[materials.rubber]
-density = 1000.0
-young = 2.8e5
-poisson = 0.5
-friction_angle = 0.7
-
+""" + BOX_MATERIALS + """
 [materials.concrete]
 density = 2600.0
 young = 4.0e6
