@@ -32,8 +32,9 @@ of a slice of a wide layer) runs:
 "Prepare once, load many": one run with ``plates = [10780, 2700, 244]`` prepares the layer once
 and loads it with each plate in turn; ``prepared_from`` (a run directory or its prepared-layer
 file) skips stages 1–2 and starts from another run's prepared layer (the box, diameters and
-materials must match). So a seeds × plates campaign is one run per seed, or one preparation run
-per seed and one run per (seed, plate) with ``prepared_from``.
+materials must match); ``plates = []`` prepares a layer and stops. So a seeds × plates campaign is
+one run per seed, or one preparation run per seed and one run per (seed, plate) with
+``prepared_from``.
 
 Output in the run directory: ``plate_<areal mass>/results.h5`` (kind "blast" of
 `analysis.schema`: series ``plate_position`` [m], ``plate_velocity`` [m/s], ``ceiling_stress`` σ0
@@ -90,7 +91,7 @@ DEFAULTS = {
     "settle_ratio": 0.01, "settle_min_time": 0.05, "settle_max_time": 1.0, "check_every": 200,
     "plate_settle_ratio": 0.01, "plate_settle_min_time": 0.02, "plate_settle_max_time": 0.2,
     "plate_settle_velocity": 1e-3,     # and the plate slower than this [m/s]
-    "plates": [10780.0],               # areal masses of the cover plates [kg/m^2]
+    "plates": [10780.0],               # areal masses of the cover plates [kg/m^2]; [] prepares only
     "plate_thickness": 0.02,           # [m], geometry only (the mass is areal mass x area)
     "F0": 9.0e6, "tau": 1.0e-4,        # F(t) = F0 (1 - t/tau) [N], [s]
     "duration": 9.0e-3,                # simulated after the impulse starts [s]
@@ -142,8 +143,11 @@ def blast_settings(doc):
             f"blast.diameter_max = {c['diameter_max']!r}: must be >= diameter_min = {c['diameter_min']!r} [m]"
         )
     plates = c["plates"]
-    if not (isinstance(plates, list) and plates):
+    if not isinstance(plates, list):
         raise InputError(f"blast.plates = {plates!r}: must be a list of plate areal masses > 0 [kg/m^2]")
+    if not plates and c["prepared_from"]:
+        raise InputError("blast.plates = []: a run with prepared_from must load at least one plate "
+                         "(plates = [] only prepares a layer)")
     c["plates"] = [
         number("blast.plates", m, 0.0, lo_open=True, allow="plate areal masses > 0 [kg/m^2]") for m in plates
     ]
@@ -576,8 +580,7 @@ def finish(out, state, c, path, ranks, wall_s, timing):
         except (KeyError, ValueError) as exc:  # a run that only loads a prepared layer has few rows
             print(f"no preparation plot: {exc}", flush=True)
     dirs = [out / plate_dir(m) for m in c["plates"]]
-    argv = ["blast", *map(str, dirs), "--out", str(out / "analysis")]
-    status = analysis_main(argv)
+    status = analysis_main(["blast", *map(str, dirs), "--out", str(out / "analysis")]) if dirs else 0
     lines = [
         f"blast layer: {path}",
         f"ranks: {ranks}",

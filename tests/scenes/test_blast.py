@@ -79,7 +79,8 @@ def test_blast_prepare_once_load_many(tmp_path):
 
 
 @pytest.mark.parametrize("edit, field", [
-    (("plates = [10780.0, 244.0]", "plates = []"), "blast.plates"),
+    (("plates = [10780.0, 244.0]", "plates = [-1.0]"), "blast.plates"),
+    (("plates = [10780.0, 244.0]", "plates = []\nprepared_from = \"/nonexistent\""), "blast.plates"),
     (("F0 = 3.6e5", "F0 = -1.0"), "blast.F0"),
     (("damping_ratio = 0.2", "damping_ratio = 1.0"), "damping_ratio"),
     (("rolling_coefficient = 0.1", "rolling_coefficient = -0.1"), "rolling_coefficient"),
