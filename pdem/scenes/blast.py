@@ -314,8 +314,12 @@ def check(doc):
     run_settings(doc)
     if doc.get("simulation", {}).get("law") is None:
         raise InputError("simulation.law: required for a blast run (the paper's law is \"viscous\")")
-    center, _ = plate_geometry(c, c["box"][2])
-    stage_scene(doc, c, "blast_0", empty_tables(), c["plates"][0], Impulse(c["F0"], c["tau"], label="blast"), center)
+    if c["plates"]:
+        center, _ = plate_geometry(c, c["box"][2])
+        stage_scene(doc, c, "blast_0", empty_tables(), c["plates"][0], Impulse(c["F0"], c["tau"], label="blast"),
+                    center)
+    else:
+        stage_scene(doc, c, "pour", empty_tables())
     if c["prepared_from"]:
         read_prepared(c["prepared_from"], c, doc["materials"])
 
