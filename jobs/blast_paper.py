@@ -2,6 +2,7 @@
 
     .venv/bin/python jobs/blast_paper.py [--seeds 1 2 3 4 5] [--out runs/blast_paper] [--ranks 1]
                                          [--parallel 1] [--set blast.box=[0.3,0.3,0.3] ...]
+                                         [--prepared runs/blast_layers]
 
 Each seed s is ``jobs/blast_campaign.toml`` with ``[blast] seed = s`` (and the ``--set``
 overrides), run with ``pdem run`` into ``OUT/seed_<s>/``: one packing prepared once, loaded
@@ -10,6 +11,10 @@ interrupted one resumes from its checkpoint. Then ``python -m analysis blast`` c
 plates over all seeds into ``OUT/compare/`` (blast_compare.txt/.json/.png: I_s and the
 amplification per plate, mean, scatter and 95 % interval, against the paper) and the wall time of
 every run goes to ``OUT/wall_times.txt``.
+
+Two steps on a busy machine or a cluster: ``--set "blast.plates=[]"`` prepares the layers only
+(``OUT/seed_<s>/prepared_layer``); ``--prepared OUT_OF_THAT`` then loads every seed's own layer
+(``prepared_from = PREPARED/seed_<s>``) with the plates.
 """
 import argparse
 import ast
@@ -29,9 +34,11 @@ from jobs.thesis_box import to_toml  # noqa: E402
 PLATES = (10780.0, 2700.0, 244.0)
 
 
-def scene_text(seed, overrides):
+def scene_text(seed, overrides, prepared=None):
     doc = tomllib.loads((ROOT / "jobs" / "blast_campaign.toml").read_text())
     doc["blast"]["seed"] = seed
+    if prepared is not None:
+        doc["blast"]["prepared_from"] = str(Path(prepared).resolve() / f"seed_{seed}")
     for item in overrides:
         key, value = item.split("=", 1)
         table, name = key.split(".", 1)
@@ -44,11 +51,11 @@ def scene_text(seed, overrides):
     return f"# jobs/blast_campaign.toml with seed = {seed} {' '.join(overrides)}\n" + to_toml(doc)
 
 
-def run_seed(seed, out, ranks, overrides):
+def run_seed(seed, out, ranks, overrides, prepared=None):
     d = out / f"seed_{seed}"
     d.mkdir(parents=True, exist_ok=True)
     scene = d / "scene.toml"
-    text = scene_text(seed, overrides)
+    text = scene_text(seed, overrides, prepared)
     if scene.exists() and scene.read_text() != text:
         raise SystemExit(f"{scene}: exists with other settings; remove {d} or use another --out")
     scene.write_text(text)
@@ -73,10 +80,11 @@ def main(argv=None):
     ap.add_argument("--ranks", type=int, default=1)
     ap.add_argument("--parallel", type=int, default=1, help="runs at a time")
     ap.add_argument("--set", nargs="*", default=[], metavar="TABLE.KEY=VALUE")
+    ap.add_argument("--prepared", type=Path, help="load each seed's layer from PREPARED/seed_<s> (prepared_from)")
     a = ap.parse_args(argv)
     a.out.mkdir(parents=True, exist_ok=True)
     with ThreadPoolExecutor(a.parallel) as pool:
-        runs = list(pool.map(lambda s: run_seed(s, a.out, a.ranks, a.set), a.seeds))
+        runs = list(pool.map(lambda s: run_seed(s, a.out, a.ranks, a.set, a.prepared), a.seeds))
     (a.out / "wall_times.txt").write_text("".join(f"seed {s}: exit {rc}, {w:.0f} s\n" for s, rc, w in runs))
     done = [a.out / f"seed_{s}" / f"plate_{m:g}" for s, rc, _ in runs if rc == 0 for m in PLATES
             if (a.out / f"seed_{s}" / f"plate_{m:g}" / "results.h5").exists()]

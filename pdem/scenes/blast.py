@@ -52,6 +52,7 @@ import numpy as np
 
 from analysis.schema import BLAST_RUN_SERIES, PREPARATION_SERIES, write_blast_parameters
 
+from ..boxes import blocked_mask
 from ..config import check_keys, run_settings, scene_from_dict
 from ..contact import viscous
 from ..driver import observables
@@ -88,6 +89,8 @@ DEFAULTS = {
     "prep_damping": 0.0,               # Cundall lambda_D of the preparation stages [-] (see the docstring)
     "prep_stiffness_factor": 1.0,      # pour with the materials' stiffness times this [-]
     "plate_damping": 0.7,              # Cundall lambda_D of the plate (only) while it settles [-]
+    "plate_lowering_speed": 0.1,       # the plate is lowered at up to this speed until the grains carry
+                                       # its weight, then let go [m/s]; 0: dropped onto the layer
     "settle_ratio": 0.01, "settle_min_time": 0.05, "settle_max_time": 1.0, "check_every": 200,
     "plate_settle_ratio": 0.01, "plate_settle_min_time": 0.02, "plate_settle_max_time": 0.2,
     "plate_settle_velocity": 1e-3,     # and the plate slower than this [m/s]
@@ -126,7 +129,7 @@ def blast_settings(doc):
               "plate_settle_velocity",
               "plate_settle_ratio", "plate_settle_max_time", "plate_thickness", "F0", "tau", "duration"):
         c[k] = number(f"blast.{k}", c[k], 0.0, lo_open=True)
-    for k in ("settle_min_time", "plate_settle_min_time"):
+    for k in ("settle_min_time", "plate_settle_min_time", "plate_lowering_speed"):
         c[k] = number(f"blast.{k}", c[k], 0.0)
     c["prep_damping"] = number(
         "blast.prep_damping", c["prep_damping"], 0.0, 0.99, allow="in [0, 0.99] (Cundall's lambda_D)"
@@ -201,9 +204,10 @@ def plate_geometry(c, bottom):
     return np.array([lx / 2, ly / 2, bottom + t / 2]), np.array([lx / 2, ly / 2, t / 2])
 
 
-def stage_scene(doc, c, stage, tables, plate_mass=None, load=None, plate_center=None):
+def stage_scene(doc, c, stage, tables, plate_mass=None, load=None, plate_center=None, lowering=False):
     """The `Scene` of ``stage`` holding the spheres of ``tables``: the file's materials and
-    settings, the ceiling and four side walls, and (plate and blast stages) the cover plate."""
+    settings, the ceiling and four side walls, and (plate and blast stages) the cover plate,
+    free in z or (``lowering``) moved at a prescribed velocity (`PlateLowering`)."""
     base = {k: v for k, v in doc.items() if k in ("simulation", "materials", "material_pairs")}
     if stage == "pour" and c["prep_stiffness_factor"] != 1.0:
         f = c["prep_stiffness_factor"]
@@ -222,7 +226,8 @@ def stage_scene(doc, c, stage, tables, plate_mass=None, load=None, plate_center=
     scene.add_wall("y", ly, w, sense=-1, name="y_max")
     if plate_mass is not None:
         _, half = plate_geometry(c, 0.0)
-        scene.add_box(plate_center, half, c["plate_material"], plate_mass * lx * ly, blocked="xyXYZ", load=load,
+        scene.add_box(plate_center, half, c["plate_material"], plate_mass * lx * ly,
+                      blocked="xyzXYZ" if lowering else "xyXYZ", load=load,
                       damping=0.0 if blast else c["plate_damping"], name="plate")
     scene.add_sphere_columns(tables["particles"])
     return scene
@@ -287,6 +292,36 @@ def blast_sample(sim, t0, load, area):
     return {"step": sim.step, "time": t - t0, "dt": sim.dt, "plate_position": float(bx.center[0, 2]),
             "plate_velocity": float(bx.velocity[0, 2]), "ceiling_stress": float(-ceiling[2] / area),
             "input_force": float(load.value(t)), "kinetic_energy": e["kinetic"] + e["rotational"]}
+
+
+class PlateLowering:
+    """The plate stage's first phase: the plate (blocked in z) is lowered onto the layer at
+    v = ``speed`` (1 − F/W) [m/s], F the grains' upward force on it and W its weight, until
+    F ≥ (1 − ``tolerance``) W; then it is let go at rest (free in z, Cundall-damped) to settle.
+    Dropped from the highest grain instead, a heavy plate lands at ~0.1 m/s and rings on the
+    stiff layer for ~0.15 s; lowered, it meets the layer's resistance at a vanishing speed.
+    The speed depends on the exact global force sum only, so every rank count gives the same
+    bits; the phase is in the run's state (``state["plate_free"]``) and the plate's velocity in
+    the checkpoint, so a restart continues it exactly."""
+
+    tolerance = 0.02
+
+    def __init__(self, speed, state):
+        self.speed, self.state = speed, state
+
+    def __call__(self, sim):
+        """After a step: the prescribed velocity of the next one, or let the plate go."""
+        if self.state["plate_free"]:
+            return
+        bx = sim.boxes
+        weight = -bx.mass[0] * sim.gravity[2]
+        carried = float(bx.contact_force[0, 2]) / weight
+        if carried >= 1.0 - self.tolerance:
+            bx.blocked[0] = blocked_mask("plate", "xyXYZ", False)
+            bx.velocity[0, 2] = 0.0
+            self.state["plate_free"] = True
+        else:
+            bx.velocity[0, 2] = -self.speed * min(1.0, 1.0 - carried)
 
 
 def plate_balance(sim):
@@ -384,6 +419,7 @@ class BlastRun(StagedRun):
             p = tables["particles"]
             top = float(np.max(p["pos"][:, 2] + p["radius"]))
             state["plate_center"] = plate_geometry(c, top)[0].tolist()
+            state["plate_free"] = not c["plate_lowering_speed"]
             return tables, (
                 f"from the prepared layer {state['prepared']}: placed the plate of {self.plate_of(stage):g} "
                 f"kg/m^2 on the highest grain (z = {top:.4f} m)"
@@ -417,7 +453,8 @@ class BlastRun(StagedRun):
             return stage_scene(self.doc, c, stage, tables)
         load = Impulse(c["F0"], c["tau"], start=state["blast_t0"], label="blast") if stage.startswith("blast") else None
         center = tables["boxes"]["center"][0] if "boxes" in tables else np.asarray(state["plate_center"])
-        return stage_scene(self.doc, c, stage, tables, self.plate_of(stage), load, center)
+        lowering = stage.startswith("plate") and not state["plate_free"]
+        return stage_scene(self.doc, c, stage, tables, self.plate_of(stage), load, center, lowering)
 
     def program(self, stage, sim, scene):
         c, state, run = self.c, self.state, self.run_cfg
@@ -430,12 +467,16 @@ class BlastRun(StagedRun):
             if self.snaps is not None:
                 write_snapshot(self.snaps, sim)
 
+        plate = stage.startswith("plate")
+        lower = PlateLowering(c["plate_lowering_speed"], state) if plate else None
+
         def on_step(sim):
+            if lower is not None:
+                lower(sim)
             if run["output_every"] and sim.step % run["output_every"] == 0:
                 self.prep.append(prep_sample(sim, k))
             self.snapshot(sim)
 
-        plate = stage.startswith("plate")
         ratio = c["plate_settle_ratio" if plate else "settle_ratio"]
         t_min = c["plate_settle_min_time" if plate else "settle_min_time"]
         if stage == "pour":  # not before the top of the cloud could have fallen to the floor
@@ -448,7 +489,8 @@ class BlastRun(StagedRun):
             if sim.time - t0 < t_min or observables.unbalanced_force(sim) >= ratio:
                 return False
             return not plate or (
-                plate_balance(sim) < ratio and abs(sim.boxes.velocity[0, 2]) < c["plate_settle_velocity"]
+                state["plate_free"] and plate_balance(sim) < ratio
+                and abs(sim.boxes.velocity[0, 2]) < c["plate_settle_velocity"]
             )
 
         return on_step, settled, c["check_every"], t_end

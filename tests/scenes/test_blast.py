@@ -51,12 +51,13 @@ def test_blast_prepare_once_load_many(tmp_path):
         a = analyse_blast(res, params)
         s = res.series
         assert s["time"][0] == pytest.approx(0.0, abs=1e-12) and s["time"][-1] >= 1.5e-3
-        # the state at t = 0: the ceiling carries the layer; the plate is (almost) at rest. The plate
-        # stage ends on the force balance of grains and plate, and the stiff layer may still ring:
-        # σ0(0) is within a factor of a few of the weight per area, not equal to it (docs/blast.md)
+        # the state at t = 0: the ceiling carries the layer and the plate (frictionless sides), the
+        # plate (almost) at rest: it was lowered until the grains carried it and then let go. This
+        # short CI preparation does not settle completely (its stages end on their maximum time), so
+        # σ0(0) is within 25 % of the weight per area (0.98 and 1.07 measured), not equal to it
         grains = n_grains * 2000.0 * 4.0 / 3.0 * np.pi * 0.00475 ** 3 * G
         weight = grains + mass * AREA * G
-        assert 0.1 * weight / AREA < a.static_stress < 3.0 * weight / AREA
+        assert 0.8 * weight / AREA < a.static_stress < 1.25 * weight / AREA
         # the plate at t = 0 is slow against what the impulse gives it (F0 τ/2/m); in this small scene the
         # plate stage may end on plate_settle_max_time with the plate still rocking (a warning line)
         assert abs(s["plate_velocity"][0]) < 0.2 * F0 * TAU / 2 / (mass * AREA)
