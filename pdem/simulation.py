@@ -322,6 +322,20 @@ class Simulation:
             mj = p.material[c.j[: c.n]] if kind.boundary is None else kind.boundary.material[c.j[: c.n]]
             law.set_friction(c.n, mi, mj, self.props, c.params)
 
+    def set_stiffness_scale(self, factor, rescale_existing=None):
+        """The law's stiffness keys (`STIFFNESS_KEYS`) of every material times ``factor`` [-] for
+        new contacts and, with ``rescale_existing``, the stiffness parameters (`STIFFNESS_PARAMS`)
+        of the existing contacts times that [-] (their tangential force stays): the stiffening
+        stage of the box test (`pdem.scenes.box_test`). Replaces a friction scale."""
+        law = self.law
+        self.props = self.materials.props(scale={k: factor for k in law.STIFFNESS_KEYS})
+        if rescale_existing is None:
+            return
+        for kind in self.kinds:
+            c = kind.contacts
+            if c.n:
+                c.params[: c.n, law.STIFFNESS_PARAMS] *= rescale_existing
+
 
 def _index(names, name, what):
     if name not in names:

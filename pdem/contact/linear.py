@@ -37,6 +37,8 @@ MATERIAL_KEYS = {
 PARAM_NAMES = {"kn": 0, "ks": 1, "tan_phi": 2}
 PWAVE_KEY = "young"  # the modulus of the P-wave time step estimate
 FRICTION_KEY = "friction_angle"
+STIFFNESS_KEYS = ("young",)  # the material keys the stiffness parameters are proportional to
+STIFFNESS_PARAMS = [0, 1]    # the parameter columns proportional to them (kn, ks)
 
 
 @njit(inline="always", cache=True)

@@ -21,11 +21,12 @@ of a slice of a wide layer) runs:
                 written to ``prepared_layer/`` of the run directory.
 3. per plate k of ``plates`` (areal masses [kg/m²]), starting again from the prepared layer:
    ``plate_k``  the cover plate (a rigid box spanning the box, z translation only, mass =
-                areal mass × box area) is placed on the highest grain and settles under its
-                weight (Cundall damping ``plate_damping`` on the plate only: without it a heavy
-                plate bounces on the stiff layer for long) until the grains'
-                unbalanced force ratio and the plate's (|F_grains + m g|/(m g)) are below
-                ``plate_settle_ratio`` and the plate is slower than ``plate_settle_velocity``;
+                areal mass × box area) is placed on the highest grain and lowered at up to
+                ``plate_lowering_speed`` until the grains carry its weight (`PlateLowering`),
+                then let go at rest; it settles under its weight (Cundall damping
+                ``plate_damping`` on the plate only) until the grains' unbalanced force ratio
+                and the plate's (|F_grains + m g|/(m g)) are below ``plate_settle_ratio`` and
+                the plate is slower than ``plate_settle_velocity``;
    ``blast_k``  no Cundall damping (only the law's viscous damping, as in the paper); the plate
                 carries F(t) = F0 (1 − t/τ) downwards for ``duration`` [s] after the stage starts.
 
@@ -62,7 +63,6 @@ from ..driver.results import series_writer, write_root_attrs
 from ..driver.stages import (
     StagedRun,
     append_bodies,
-    check_no_steps,
     empty_tables,
     remove_above,
 )
@@ -361,9 +361,11 @@ def check(doc):
 
 def run(path, doc, out_dir, comm, steps=None, fresh=False):
     """Run (or resume) the blast layer of a parsed scene file; returns the exit status."""
-    check_no_steps(steps)
     check(doc)
-    return BlastRun(path, doc, out_dir, comm, fresh).run()
+    run = BlastRun(path, doc, out_dir, comm, fresh)
+    if steps is not None:  # stop with a checkpoint at this step of the run (continue without --steps)
+        run.stop_step = number("--steps", steps, 0, integer=True)
+    return run.run()
 
 
 class BlastRun(StagedRun):

@@ -44,18 +44,21 @@ import numpy as np
 from analysis.schema import BOX_TEST_SERIES
 
 from ..config import check_keys, run_settings, scene_from_dict
+from ..contact import linear
 from ..driver.cycles import CycleRecorder
 from ..driver.preparation import PREPARATION_DEFAULTS, PREPARATION_STAGES, PreparedRun, add_cloud, \
     check_preparation, plot_preparation
 from ..driver.results import series_writer, write_cycles, write_root_attrs
 from ..driver.stages import check_no_steps, empty_tables, remove_above
 from ..errors import InputError
+from ..driver import observables
 from ..driver.observables import box_face_forces
 from ..driver.preparation import remove_where
 from ..loads import HalfSine, Haversine
 from ..validate import number
 
 STAGES = PREPARATION_STAGES + ("load",)
+STIFFENED_STAGES = PREPARATION_STAGES + ("stiffen", "load")  # with prep_stiffness_factor < 1
 # [box_test] keys and defaults (SPEC.md 2.3, thesis table 5.1; stiffness is in [materials]);
 # the preparation pipeline's keys (radius, seed, settle_*, vibration_* ...) are
 # `pdem.driver.preparation.PREPARATION_DEFAULTS`
@@ -76,6 +79,9 @@ DEFAULTS = {
     "refill": "beside",           # "beside": clouds beside the sleeper; "whole": one cloud over the whole box
     "waveform": "haversine",      # "haversine" or "half_sine" (pdem.loads)
     "base": "one_sided",          # "one_sided" or "two_sided" (grains may pass through; counted)
+    # preparation at reduced stiffness, then a stiffening stage (law "linear"; docs/box_test.md "Full stiffness")
+    "prep_stiffness_factor": 1.0,  # pour .. settle with every material's young times this [-]; 1: no stiffen stage
+    "stiffen_time": 0.2,           # the stiffness grows geometrically to the materials' over this time [s]
 }
 CHOICES = {"cut": ("top", "center"), "sleeper_placement": ("cut", "on_top"), "refill": ("beside", "whole"),
            "waveform": ("haversine", "half_sine"), "base": ("one_sided", "two_sided")}
@@ -107,7 +113,12 @@ def box_settings(doc):
         raise InputError(f"box_test.sleeper_placement = 'cut' with cut = 'center': the sleeper starts overlapping "
                          f"spheres by up to their radius (Yade's immediate loading), which the runaway guard stops at "
                          f"simulation.max_overlap_ratio = {limit!r}; set it to 1.0, or sleeper_placement = 'on_top'")
-    for k in ("cut_height", "height", "sleeper_mass", "frequency"):
+    c["prep_stiffness_factor"] = number("box_test.prep_stiffness_factor", c["prep_stiffness_factor"], 0.0, 1.0,
+                                        lo_open=True, allow="in (0, 1]")
+    if c["prep_stiffness_factor"] != 1.0 and doc.get("simulation", {}).get("law", "linear") != "linear":
+        raise InputError(f"box_test.prep_stiffness_factor = {c['prep_stiffness_factor']!r}: the stiffening stage "
+                         "needs simulation.law = 'linear' (its stiffness is proportional to young); use 1.0")
+    for k in ("cut_height", "height", "sleeper_mass", "frequency", "stiffen_time"):
         c[k] = number(f"box_test.{k}", c[k], 0.0, lo_open=True)
     for k in ("f_min", "f_max"):
         c[k] = number(f"box_test.{k}", c[k], 0.0)
@@ -183,8 +194,13 @@ def stage_scene(doc, c, stage, tables, load_start=None, sleeper_center=None):
     """The `Scene` of ``stage`` holding the spheres of ``tables``: materials and settings of
     the file, the box's five walls, the sleeper from stage ``refill`` on (loaded in ``load``).
     With ``base`` = "two_sided" the base acts on both sides (Yade's wall sense 0) and a sixth
-    wall ``catch`` at `catch_depth` below it holds the spheres that passed through."""
+    wall ``catch`` at `catch_depth` below it holds the spheres that passed through. Before
+    ``load``, every material's stiffness is times ``prep_stiffness_factor``."""
     base = {k: v for k, v in doc.items() if k in ("simulation", "materials")}
+    f = c["prep_stiffness_factor"]
+    if f != 1.0 and stage != "load":
+        base["materials"] = {name: {k: v * f if k in linear.STIFFNESS_KEYS else v for k, v in m.items()}
+                             for name, m in base["materials"].items()}
     base["simulation"] = {**base.get("simulation", {}), "allow_initial_overlap": True}
     scene = scene_from_dict(base)
     lx, ly, _ = c["box"]
@@ -196,7 +212,7 @@ def stage_scene(doc, c, stage, tables, load_start=None, sleeper_center=None):
     scene.add_wall("y", ly, c["wall_material"], sense=-1, name="y_max")
     if two_sided:
         scene.add_wall("z", -catch_depth(c), c["wall_material"], sense=1, name="catch")
-    if STAGES.index(stage) >= STAGES.index("refill"):
+    if stage != "pour":
         center, half = sleeper_geometry(c, c["cut_height"])
         if sleeper_center is not None:
             center = np.asarray(sleeper_center, float)
@@ -272,15 +288,15 @@ class BoxTestRun(PreparedRun):
     start and the cycle recorder."""
 
     NAME = "box_test"
-    STAGES = STAGES
 
     def __init__(self, path, doc, out_dir, comm, fresh):
         self.c = box_settings(doc)
+        self.STAGES = STAGES if self.c["prep_stiffness_factor"] == 1.0 else STIFFENED_STAGES
         self.recorder = None
         super().__init__(path, doc, out_dir, comm, fresh)
 
     def initial_state(self):
-        return {"load_start": None, "recorder": None}
+        return {"load_start": None, "recorder": None, "stiffness_scale": self.c["prep_stiffness_factor"]}
 
     def checkpoint_state(self):
         return {**self.state, "recorder": self.recorder.state() if self.recorder else None}
@@ -338,6 +354,9 @@ class BoxTestRun(PreparedRun):
         return tables, f"removed {removed} spheres above {h2} m"
 
     def open_load_stage(self, stage, tables):
+        if stage == "stiffen":
+            c = self.c
+            return tables, f"stiffness x {c['prep_stiffness_factor']:g} -> x 1 over {c['stiffen_time']:g} s; settle"
         self.state["load_start"] = float(self.meta["time"]) if self.meta else 0.0
         return tables, ""
 
@@ -349,12 +368,53 @@ class BoxTestRun(PreparedRun):
 
     def prepare(self, stage, sim, scene, mid_stage):
         super().prepare(stage, sim, scene, mid_stage)
+        if stage == "stiffen":  # the scale reached so far (the carried contacts hold it already)
+            sim.set_stiffness_scale(self.state["stiffness_scale"] / self.c["prep_stiffness_factor"])
+            sim.moving_boundaries = True  # stiffening raises the elastic energy: no energy-growth check
         if self.c["base"] == "two_sided":  # a sphere may pass the base: no domain check there, and a sphere
             sim.guard.wall_side[sim.wall_index("base")] = 0  # on the plane overlaps it by its radius (ratio 1)
             sim.max_overlap_ratio = max(sim.max_overlap_ratio, 1.0)
 
     def bodies_note(self, sim):
         return "" if sim.boxes is None else f", sleeper bottom {sim.boxes.center[0, 2] - sim.boxes.half[0, 2]:.4f} m"
+
+    # ------------------------------------------------------------------ stiffening
+    def program(self, stage, sim, scene):
+        return self.stiffen_program(sim) if stage == "stiffen" else super().program(stage, sim, scene)
+
+    def stiffen_program(self, sim):
+        """Every ``check_every`` steps the stiffness scale s = f^(1 − t'/T) (t' since the stage
+        started, f = ``prep_stiffness_factor``, T = ``stiffen_time``; 1 from t' = T on): new contacts
+        are made with it, existing ones have their k_n, k_s times s/s_before (their tangential
+        force stays), and Δt follows at once. Then settle as a settle stage does."""
+        c, state, run = self.c, self.state, self.run_cfg
+        t0, f, duration, every = state["stage_t0"], c["prep_stiffness_factor"], c["stiffen_time"], c["check_every"]
+        t_end = t0 + duration + c["settle_max_time"]
+
+        def on_step(sim):
+            if sim.step % every == 0 and state["stiffness_scale"] < 1.0:
+                s = 1.0 if sim.time - t0 >= duration else f ** (1.0 - (sim.time - t0) / duration)
+                sim.set_stiffness_scale(s / f, s / state["stiffness_scale"])
+                state["stiffness_scale"] = s
+                sim.update_dt(force=True)
+            if run["output_every"] and sim.step % run["output_every"] == 0:
+                self.prep.append(self.prep_sample(sim, "stiffen"))
+            self.snapshot(sim)
+
+        def settled(sim):
+            return sim.time >= t_end or (state["stiffness_scale"] == 1.0
+                                         and observables.unbalanced_force(sim) < c["settle_ratio"])
+
+        return on_step, settled, every, t_end
+
+    def close_stage(self, stage, sim):
+        super().close_stage(stage, sim)
+        if stage == "stiffen":
+            ratio = observables.unbalanced_force(sim)
+            if self.state["stiffness_scale"] != 1.0 or ratio >= self.c["settle_ratio"]:
+                self.loop.log(f"warning: stage stiffen reached stiffen_time + settle_max_time with stiffness scale "
+                              f"{self.state['stiffness_scale']:g} and unbalanced force ratio {ratio:.3g}; going on")
+            self.prep.append(self.prep_sample(sim, stage))
 
     # ------------------------------------------------------------------ cyclic loading
     def load_program(self, stage, sim, scene):
@@ -387,19 +447,19 @@ class BoxTestRun(PreparedRun):
         )
 
     def after_stage(self, stage, sim):
-        if stage == "settle":  # the first row of the load record: the sleeper where cycling starts
+        if stage == self.STAGES[-2]:  # the first row of the load record: the sleeper where cycling starts
             self.series.append(load_sample(sim, sim.boxes.center[0], load=self.c["f_min"]))
 
     def finish(self, sim, wall_s):
-        finish(self.out, self.results, sim, self.state, self.c, self.path, self.comm.size, wall_s)
+        finish(self.out, self.results, sim, self.state, self.c, self.path, self.comm.size, wall_s, self.STAGES)
 
 
-def finish(out, results, sim, state, c, path, ranks, wall_s):
+def finish(out, results, sim, state, c, path, ranks, wall_s, stages=STAGES):
     """Rank 0 at the end: plots, the analysis of the cycles and summary.txt (with timing): the
     scene's finishing step calls the analysis entry point `analysis.__main__.main`."""
     from analysis.__main__ import main as analysis_main
 
-    plot_preparation(out / "preparation.h5", out / "preparation.png", STAGES)
+    plot_preparation(out / "preparation.h5", out / "preparation.png", stages)
     status = analysis_main(["box", str(results), "--out", str(out / "analysis")])
     lines = [f"box test: {path}", f"ranks: {ranks}", f"wall time: {wall_s:.1f} s", "",
              "stage     t_end [s]    steps  spheres  unbalanced  bed top [m]  sleeper z [m]  wall [s]"]

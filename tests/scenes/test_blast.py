@@ -9,6 +9,8 @@ scaled to the area: F0 = 9 MN x 0.0036/0.09) prepared once and loaded by a heavy
   layer (``prepared_from``) with the light plate only gives that plate's record bit for bit
   (but the step numbers):
   the prepared layer carries everything, and the result does not depend on the rank count.
+- The heavy plate's run stopped while the plate is being lowered and resumed on another rank
+  count gives the same record.
 - Bad input stops with one line and status 2.
 """
 from pathlib import Path
@@ -20,6 +22,7 @@ from pdem_cli import run_pdem
 
 from analysis.blast import analyse_blast
 from analysis.groups import read_blast
+from pdem.io.checkpoint import list_checkpoints, read_checkpoint
 
 SCENE = (Path(__file__).with_name("blast_ci.toml")).read_text()
 AREA = 0.06 * 0.06
@@ -77,6 +80,21 @@ def test_blast_prepare_once_load_many(tmp_path):
         if k != "step":  # step numbers go on from the run's last step (by a multiple of every schedule)
             assert np.array_equal(again[k], light[k]), k
     assert len(np.unique(light["step"] - again["step"])) == 1
+
+    # the heavy plate interrupted while it is being lowered (100 steps into its stage), resumed on
+    # the other rank count: the same record
+    prepared_step = int(next((run1 / "prepared_layer").glob("ckpt_*.h5")).stem.split("_")[1])
+    scene3 = tmp_path / "blast3.toml"
+    scene3.write_text(SCENE.replace("plates = [10780.0, 244.0]", f"plates = [10780.0]\nprepared_from = \"{run1}\""))
+    run3 = tmp_path / "run3"
+    run_pdem(2, scene3, run3, "--steps", str(prepared_step + 100))
+    stopped = read_checkpoint(list_checkpoints(run3 / "checkpoints")[-1][1])[1]
+    assert stopped["step"] == prepared_step + 100 and stopped["blast"]["plate_free"] is False
+    run_pdem(1, scene3, run3)
+    heavy, resumed = series(run1 / "plate_10780" / "results.h5"), series(run3 / "plate_10780" / "results.h5")
+    for k in heavy:
+        if k != "step":
+            assert np.array_equal(resumed[k], heavy[k]), k
 
 
 @pytest.mark.parametrize("edit, field", [

@@ -8,7 +8,10 @@ Option sets (each a few seconds per run):
   what the cut leaves, refill over the whole box, half-sine load, two-sided base on a very soft
   rubber (grains pass through and are counted);
 - ``overlap``: cut by centre with the sleeper at the cut (its initial overlaps loaded at once,
-  as Yade; a soft sleeper and max_overlap_ratio = 1), vibration off.
+  as Yade; a soft sleeper and max_overlap_ratio = 1), vibration off;
+- ``stiffen``: every material 10 times stiffer, prepared at 0.1 of it and stiffened in 0.05 s
+  before loading: after the stiffen stage every contact's k_n and k_s are the ones Ip2 gives at
+  the full stiffness (within rounding), and a resume in the middle of it gives the same bits.
 """
 import shutil
 
@@ -64,6 +67,9 @@ base = "two_sided"
 """,
     "overlap": """cut = "center"
 """,
+    "stiffen": """prep_stiffness_factor = 0.1
+stiffen_time = 0.05
+""",
 }
 
 needs_mpiexec = pytest.mark.skipif(not MPIEXEC.exists(), reason="multi-rank test: no mpiexec next to the Python "
@@ -78,6 +84,10 @@ def scene_text(name):
     if name == "overlap":  # vibration off; a soft sleeper, so that its initial overlaps do not shoot spheres away
         text = text.replace("vibration_time = 0.05", "vibration_time = 0.0").replace("young = 2.8e7", "young = 2.8e5")
         text = text.replace('slab_axis = "x"', 'slab_axis = "x"\nmax_overlap_ratio = 1.0')
+    if name == "stiffen":  # 10 times the stiffness, prepared at the usual one; checkpoints inside the stages
+        for soft, stiff in (("2.8e7", "2.8e8"), ("2.8e6", "2.8e7"), ("2.8e5", "2.8e6")):  # steel, ballast, rubber
+            text = text.replace(f"young = {soft}", f"young = {stiff}")
+        text = text.replace("checkpoint_keep = 0", "checkpoint_keep = 0\ncheckpoint_every = 200")
     return text
 
 
@@ -162,23 +172,44 @@ def bottom_of(stdout):
 
 
 @needs_mpiexec
-@pytest.mark.parametrize("name", ["yade", "overlap"])
+@pytest.mark.parametrize("name", ["yade", "overlap", "stiffen"])
 def test_same_bits_on_2_ranks(runs, tmp_path, name):
     d, _, scene = runs[name]
     run_pdem(2, scene, tmp_path / "r2")
     assert_same(d, tmp_path / "r2")
 
 
+def step_of(stdout, text):
+    return int(next(s for s in stdout.splitlines() if text in s).split(":")[0].split()[1])
+
+
+def test_stiffened_contacts_have_the_full_stiffness(runs):
+    """Linear law (YADE_MODEL.md §4): k_n = 2 E r_i r_j/(r_i + r_j), k_s = ν k_n for two ballast
+    spheres (E = 2.8e7 Pa, ν = 0.3); the contacts made at 0.1 of it and stiffened agree."""
+    d, out, _ = runs["stiffen"]
+    assert "stages pour, refill, vibrate, settle, stiffen, load" in out
+    end = step_of(out, "(end of stage stiffen")
+    tables = read_checkpoint(dict(list_checkpoints(d / "checkpoints"))[end])[0]
+    radius = dict(zip(tables["particles"]["gid"].tolist(), tables["particles"]["radius"].tolist()))
+    c = tables["contacts/sphere_sphere"]
+    ri = np.array([radius[g] for g in (c["key"] >> 32).tolist()])
+    rj = np.array([radius[g] for g in (c["key"] & 0xFFFFFFFF).tolist()])
+    kn = 2 * 2.8e7 * ri * rj / (ri + rj)
+    assert len(kn) > 100
+    assert np.allclose(c["params"][:, 0], kn, rtol=1e-13, atol=0) and np.allclose(c["params"][:, 1], 0.3 * kn,
+                                                                                  rtol=1e-13, atol=0)
+    prep = series(d, "preparation.h5")
+    assert prep["stage"].max() == 4  # a preparation row of the stiffen stage
+
+
 @needs_mpiexec
-def test_resume_in_the_middle_of_the_vibration_on_3_ranks(runs, tmp_path):
+@pytest.mark.parametrize("name, stage, before", [("yade", "vibrate", "refill"), ("stiffen", "stiffen", "settle")])
+def test_resume_in_the_middle_of_a_stage_on_3_ranks(runs, tmp_path, name, stage, before):
     """With friction lowered for new contacts only, a resume inside the vibrate stage must keep the
-    tan φ every contact had (carried in the checkpoint) and lower it only for new ones."""
-    d, out, scene = runs["yade"]
-
-    def step_of(text):
-        return int(next(s for s in out.splitlines() if text in s).split(":")[0].split()[1])
-
-    start, end = step_of("(end of stage refill"), step_of("(end of stage vibrate")
+    tan φ every contact had (carried in the checkpoint) and lower it only for new ones; inside the
+    stiffen stage, the stiffness scale reached and every contact's stiffness."""
+    d, out, scene = runs[name]
+    start, end = step_of(out, f"(end of stage {before}"), step_of(out, f"(end of stage {stage}")
     mid = next(s for s, _ in list_checkpoints(d / "checkpoints") if start < s < end)
     res = tmp_path / "resumed"
     shutil.copytree(d, res)
@@ -186,5 +217,5 @@ def test_resume_in_the_middle_of_the_vibration_on_3_ranks(runs, tmp_path):
         if s > mid:
             p.unlink()
     r = run_pdem(3, scene, res)
-    assert f"at step {mid} (stage vibrate" in r.stdout and "stage vibrate (resumed)" in r.stdout
+    assert f"at step {mid} (stage {stage}" in r.stdout and f"stage {stage} (resumed)" in r.stdout
     assert_same(d, res)

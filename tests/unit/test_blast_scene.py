@@ -56,3 +56,23 @@ def test_every_plate_starts_on_the_prepared_clock():
     run.meta = {"step": 25017, "time": 0.41}
     blast.BlastRun.restart_clock(run, prepared)
     assert run.meta["step"] == 18600 + 7 * 1000 and run.meta["time"] == 0.3  # lcm(100, 40, 200, 500) = 1000
+
+
+def test_plate_is_lowered_until_the_grains_carry_it_then_let_go():
+    """v = speed (1 − F/W) downwards while F < 0.98 W; then the plate is free in z, at rest."""
+    state = {"plate_free": False}
+    lower = blast.PlateLowering(0.1, state)
+    boxes = SimpleNamespace(mass=np.array([2.0]), contact_force=np.zeros((1, 3)), velocity=np.zeros((1, 3)),
+                            blocked=np.array([0b111111]))
+    sim = SimpleNamespace(boxes=boxes, gravity=np.array([0.0, 0.0, -10.0]))  # W = 20 N
+    lower(sim)
+    assert boxes.velocity[0, 2] == -0.1 and not state["plate_free"]
+    boxes.contact_force[0, 2] = 15.0
+    lower(sim)
+    assert boxes.velocity[0, 2] == pytest.approx(-0.025) and boxes.blocked[0] == 0b111111
+    boxes.contact_force[0, 2] = 19.7  # carried within 2 %: let go
+    lower(sim)
+    assert state["plate_free"] and boxes.velocity[0, 2] == 0.0 and boxes.blocked[0] == 0b111011
+    boxes.velocity[0, 2] = 0.3  # free from now on: the lowering leaves it alone
+    lower(sim)
+    assert boxes.velocity[0, 2] == 0.3
