@@ -3,16 +3,18 @@ box test: per-cycle records from one zero, the bottom/side force split, friction
 contacts only (Yade), the cut by centre, the sleeper lowered onto the cut, the half-sine program,
 the two-sided base and the one-line errors of every option key."""
 from math import pi, sin, tan
+from pathlib import Path
 
 import numpy as np
 import pytest
+import tomllib
 
 from pdem.driver.cycles import CycleRecorder
 from pdem.driver.observables import box_face_forces
 from pdem.errors import InputError
 from pdem.loads import HalfSine, Haversine
 from pdem.scene import Scene
-from pdem.scenes.box_test import DEFAULTS, box_settings, cut, sleeper_geometry, sleeper_members, sleeper_on_top
+from pdem.scenes.box_test import DEFAULTS, box_settings, check, cut, sleeper_geometry, sleeper_members, sleeper_on_top
 
 
 # ---------------------------------------------------------------------------- records
@@ -147,6 +149,9 @@ DOC = {"materials": {"ballast": {}, "steel": {}, "rubber": {}}, "box_test": {}}
     ("waveform", "sine", "box_test.waveform = 'sine': must be one of 'haversine', 'half_sine'"),
     ("base", 2, "box_test.base = 2: must be one of 'one_sided', 'two_sided'"),
     ("vibration_friction_contacts", "old", "box_test.vibration_friction_contacts = 'old': must be 'all'"),
+    ("prep_stiffness_factor", 0.0, "box_test.prep_stiffness_factor = 0.0: must be in (0, 1]"),
+    ("prep_stiffness_factor", 2.0, "box_test.prep_stiffness_factor = 2.0: must be in (0, 1]"),
+    ("stiffen_time", -1.0, "box_test.stiffen_time = -1.0"),
 ])
 def test_bad_option_one_line(key, value, message):
     with pytest.raises(InputError) as e:
@@ -172,3 +177,13 @@ def test_clump_sleeper_geometry_has_the_thesis_count_mass_and_size():
     bottom = m[np.isclose(m[:, 2], m[:, 2].min())]
     assert len(bottom) == 25 * 30
     assert len(m[np.isclose(m[:, 0], m[:, 0].min())]) == 30 * 15
+
+
+def test_stiffening_needs_the_linear_law_and_the_full_stiffness_job_checks():
+    with pytest.raises(InputError) as e:
+        box_settings({**DOC, "simulation": {"law": "viscous"}, "box_test": {"prep_stiffness_factor": 0.1}})
+    assert "needs simulation.law = 'linear'" in str(e.value) and "\n" not in str(e.value)
+    doc = tomllib.loads((Path(__file__).parents[2] / "jobs" / "box_test_full_10.toml").read_text())
+    check(doc)
+    c = box_settings(doc)
+    assert (c["prep_stiffness_factor"], c["cycles"], doc["materials"]["ballast"]["young"]) == (1e-4, 10, 2.8e11)
