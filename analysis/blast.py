@@ -16,6 +16,12 @@ runs (seeds x plates: ``blast_compare.txt``, ``.json``, ``.png``). Quantities:
 - amplification I_s / I_in [-] (= ratio of the total impulses on ceiling and plate).
 - peak sigma_0 and its time; arrival time (sigma_0 - sigma_static first reaches
   `ARRIVAL_FRACTION` of its peak); plate displacement dp = z - z(0) (the paper's Fig. 4).
+- layer stiffness k_A [Pa/m]: least-squares slope (through 0) of sigma_0 - sigma_static against
+  the plate's drop d = z(0) - z while the plate goes down (up to its largest drop); and the
+  amplification of a one-degree-of-freedom model, 1 - cos(omega T), omega = sqrt(k_A / mu):
+  a rigid plate of areal mass mu on a massless linear layer, hit by an impulse short against
+  its period, passes I_in (1 - cos omega T) to the ceiling within T (the layer force k_A d(t),
+  d = I_in sin(omega t) / (mu omega)). It holds for plates much heavier than the layer.
 
 The paper's values (section 4): I_in = 5e-3 MPa s; I_s = 7.97e-3, 7.96e-3, 8.88e-3 MPa s for
 plates of 10 780, 2 700, 244 kg/m^2, i.e. amplification 1.59 for both heavy plates
@@ -65,6 +71,10 @@ class BlastAnalysis:
     plate_drop, plate_drop_time : float [m], [s]
         Largest downward plate displacement (>= 0) and when.
     plate_velocity_end : float [m/s]
+    layer_stiffness : float [Pa/m]
+        k_A, NaN if the plate did not go down.
+    sdof_amplification : float [-]
+        1 - cos(sqrt(k_A / mu) T) over the record's length T.
     until : float [s]
         End of the integration (the last sample unless limited).
     paper : tuple (areal mass, I_s, amplification) or None
@@ -88,6 +98,8 @@ class BlastAnalysis:
     plate_drop: float
     plate_drop_time: float
     plate_velocity_end: float
+    layer_stiffness: float
+    sdof_amplification: float
     until: float
     paper: tuple | None
 
@@ -101,6 +113,22 @@ def cumulative_trapezoid(y, t) -> np.ndarray:
 def input_impulse(params: BlastParameters) -> float:
     """I_in = F0 tau / 2 / ceiling area [Pa s]: the triangular load F0 (1 - t/tau) per area."""
     return params.F0 * params.tau / 2.0 / params.ceiling_area
+
+
+def layer_stiffness(stress_rise, drop) -> float:
+    """k_A [Pa/m]: least-squares slope through 0 of the ceiling's stress rise [Pa] against the
+    plate's drop [m] (> 0 down), from the start to the largest drop; NaN without a drop."""
+    j = int(np.argmax(drop))
+    d, s = drop[: j + 1], stress_rise[: j + 1]
+    dd = float(np.dot(d, d))
+    return float(np.dot(d, s) / dd) if drop[j] > 0 and dd > 0 else float("nan")
+
+
+def sdof_amplification(stiffness: float, areal_mass: float, duration: float) -> float:
+    """1 - cos(omega T), omega = sqrt(k_A / mu) [1/s]: the impulse a plate of areal mass mu
+    [kg/m^2] on a massless layer of stiffness k_A [Pa/m] passes to the ceiling within T [s], per
+    unit input impulse."""
+    return 1.0 - math.cos(math.sqrt(stiffness / areal_mass) * duration) if stiffness > 0 else float("nan")
 
 
 def paper_plate(areal_mass: float):
@@ -148,6 +176,7 @@ def analyse_blast(results: Results, params: BlastParameters,
         arrival = float(t[np.argmax(rise >= ARRIVAL_FRACTION * rise[k])])
     dz = z - z[0]
     j = int(np.argmin(dz))
+    k_a = layer_stiffness(rise, -dz)
     return BlastAnalysis(
         results=results, params=params, time=t, cumulative_impulse=cumulative,
         impulse=impulse, impulse_dynamic=dynamic, static_stress=static, input_impulse=i_in,
@@ -155,6 +184,8 @@ def analyse_blast(results: Results, params: BlastParameters,
         amplification_dynamic=dynamic / i_in, peak_stress=float(sigma[k]),
         peak_time=float(t[k]), arrival_time=arrival, plate_drop=float(max(-dz[j], 0.0)),
         plate_drop_time=float(t[j]), plate_velocity_end=float(s["plate_velocity"][keep][-1]),
+        layer_stiffness=k_a,
+        sdof_amplification=sdof_amplification(k_a, params.plate_areal_mass, float(t[-1] - t[0])),
         until=float(t[-1]), paper=paper_plate(params.plate_areal_mass))
 
 
@@ -172,13 +203,15 @@ SCALARS = (  # name, header, units shown, scale SI -> shown
     ("plate_drop", "plate_drop", "mm", MM),
     ("plate_drop_time", "t_drop", "ms", MS),
     ("plate_velocity_end", "v_plate_end", "m/s", 1.0),
+    ("layer_stiffness", "k_A", "MPa/mm", MPA / MM),
+    ("sdof_amplification", "1-cos(wT)", "-", 1.0),
     ("until", "t_end", "ms", MS),
 )
 SI_UNITS = {"impulse": "Pa s", "impulse_dynamic": "Pa s", "input_impulse": "Pa s",
             "input_impulse_series": "Pa s", "amplification": "-",
             "amplification_dynamic": "-", "static_stress": "Pa", "peak_stress": "Pa",
             "peak_time": "s", "arrival_time": "s", "plate_drop": "m", "plate_drop_time": "s",
-            "plate_velocity_end": "m/s", "until": "s"}
+            "plate_velocity_end": "m/s", "layer_stiffness": "Pa/m", "sdof_amplification": "-", "until": "s"}
 
 
 def blast_lines(result: BlastAnalysis) -> list[str]:
@@ -286,7 +319,7 @@ class PlateStatistics:
 
 
 COMPARED = ("impulse", "impulse_dynamic", "amplification", "amplification_dynamic",
-            "peak_stress", "peak_time", "plate_drop")
+            "peak_stress", "peak_time", "plate_drop", "layer_stiffness", "sdof_amplification")
 
 
 def compare_blast(analyses) -> list[PlateStatistics]:

@@ -178,3 +178,23 @@ def test_bad_parameter_and_non_finite_series(tmp_path):
     expect_error(path, "/series/plate_velocity", "non-finite")
     with pytest.raises(ValueError, match="finite and > 0"):
         write_blast_parameters(path, plate_areal_mass=0.0, ceiling_area=AREA, F0=F0, tau=TAU)
+
+
+def test_layer_stiffness_and_the_one_degree_of_freedom_model(tmp_path):
+    """A heavy plate (mu = 10 780 kg/m^2) on a massless linear layer (k_A = 2e8 Pa/m), hit by the
+    input impulse I_in: d(t) = I_in sin(wt)/(mu w), sigma_0 = S0 + k_A d, w = sqrt(k_A/mu). The
+    analysis finds k_A from the record, and the impulse it integrates is I_in (1 - cos wT)."""
+    mu, k_a = 10780.0, 2.0e8
+    w = math.sqrt(k_a / mu)
+    t = np.arange(9001) * 1e-6
+    d = 5000.0 * np.sin(w * t) / (mu * w)
+    series = dict(time=t, step=np.arange(9001.0), plate_position=0.3 - d,
+                  plate_velocity=-5000.0 / mu * np.cos(w * t), ceiling_stress=S0 + k_a * d,
+                  input_force=np.where(t <= TAU, F0 * (1.0 - t / TAU), 0.0))
+    path = tmp_path / "sdof.h5"
+    write_results(path, series, None, {"scene": {"name": "blast"}, "pdem_version": "0.1.0", "kind": "blast"})
+    write_blast_parameters(path, plate_areal_mass=mu, ceiling_area=AREA, F0=F0, tau=TAU)
+    r = analyse_blast(*read_blast(path))
+    assert r.layer_stiffness == pytest.approx(k_a, rel=1e-9)
+    assert r.sdof_amplification == pytest.approx(1.0 - math.cos(w * 9e-3), rel=1e-12)
+    assert r.amplification_dynamic == pytest.approx(r.sdof_amplification, rel=1e-6)
