@@ -51,12 +51,14 @@ test-mpi: venv
 validate: venv
 	$(PYTEST) -m validate tests
 
-# Throughput on one rank (1 and 2 threads), then 1 vs 2 MPI ranks, then the start-up time (bench/results.json,
+# Throughput on one rank (1 and 2 threads), then 1 vs 2 MPI ranks, then the start-up time, then the
+# full-stiffness box test on 1 and 2 ranks (bench/results.json,
 # docs/performance.md)
 bench: venv
 	$(VPY) -m bench
 	$(VPY) -m bench --mpi
 	$(VPY) -m bench.startup
+	$(VPY) -m bench.box_full
 
 clean:
 	rm -rf $(VENV) runs bench/cache

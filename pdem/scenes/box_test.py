@@ -49,7 +49,7 @@ from ..driver.cycles import CycleRecorder
 from ..driver.preparation import PREPARATION_DEFAULTS, PREPARATION_STAGES, PreparedRun, add_cloud, \
     check_preparation, plot_preparation
 from ..driver.results import series_writer, write_cycles, write_root_attrs
-from ..driver.stages import check_no_steps, empty_tables, remove_above
+from ..driver.stages import empty_tables, remove_above
 from ..errors import InputError
 from ..driver import observables
 from ..driver.observables import box_face_forces
@@ -277,8 +277,10 @@ def check(doc):
 
 def run(path, doc, out_dir, comm, steps=None, fresh=False):
     """Run (or resume) the box test of a parsed scene file; returns the exit status."""
-    check_no_steps(steps)
-    return BoxTestRun(path, doc, out_dir, comm, fresh).run()
+    run = BoxTestRun(path, doc, out_dir, comm, fresh)
+    if steps is not None:  # stop with a checkpoint at this step of the run (continue without --steps)
+        run.stop_step = number("--steps", steps, 0, integer=True)
+    return run.run()
 
 
 class BoxTestRun(PreparedRun):
