@@ -44,6 +44,16 @@ from .runloop import RunLoop, prepare_output, resume_point
 
 
 # ---------------------------------------------------------------------------- table operations
+STIFFNESS_KEYS = ("kn", "ks", "rolling_stiffness", "young")  # material keys of a stiffness, any law
+
+
+def scaled_stiffness(materials, factor):
+    """The scene file's [materials] tables with every stiffness (`STIFFNESS_KEYS`) times ``factor``
+    (a preparation at reduced stiffness)."""
+    return {name: {k: v * factor if k in STIFFNESS_KEYS else v for k, v in m.items()}
+            for name, m in materials.items()}
+
+
 def empty_tables():
     """Global tables with no bodies."""
     return {"particles": {k: np.zeros((0,) + shape, dtype) for k, (dtype, shape) in FIELDS.items()}}

@@ -65,6 +65,7 @@ from ..driver.stages import (
     append_bodies,
     empty_tables,
     remove_above,
+    scaled_stiffness,
 )
 from ..errors import InputError, InstabilityError
 from ..generators import loose_cloud
@@ -106,7 +107,6 @@ PREPARED_DIR = "prepared_layer"
 # what must agree between a prepared layer and the run that loads it
 PREPARED_KEYS = ("box", "grain_material", "wall_material", "side_material", "diameter_min", "diameter_max", "seed",
                  "packing_fraction", "overfill", "prep_stiffness_factor", "prep_damping", "settle_ratio")
-STIFFNESS_KEYS = ("kn", "ks", "rolling_stiffness", "young")  # scaled by prep_stiffness_factor
 
 
 # ---------------------------------------------------------------------------- settings
@@ -210,9 +210,7 @@ def stage_scene(doc, c, stage, tables, plate_mass=None, load=None, plate_center=
     free in z or (``lowering``) moved at a prescribed velocity (`PlateLowering`)."""
     base = {k: v for k, v in doc.items() if k in ("simulation", "materials", "material_pairs")}
     if stage == "pour" and c["prep_stiffness_factor"] != 1.0:
-        f = c["prep_stiffness_factor"]
-        base["materials"] = {name: {k: v * f if k in STIFFNESS_KEYS else v for k, v in m.items()}
-                             for name, m in base["materials"].items()}
+        base["materials"] = scaled_stiffness(base["materials"], c["prep_stiffness_factor"])
     blast = stage.startswith("blast")
     base["simulation"] = {**base.get("simulation", {}), "allow_initial_overlap": True,
                           "damping": 0.0 if blast else c["prep_damping"]}

@@ -44,12 +44,11 @@ import numpy as np
 from analysis.schema import BOX_TEST_SERIES
 
 from ..config import check_keys, run_settings, scene_from_dict
-from ..contact import linear
 from ..driver.cycles import CycleRecorder
 from ..driver.preparation import PREPARATION_DEFAULTS, PREPARATION_STAGES, PreparedRun, add_cloud, \
     check_preparation, plot_preparation
 from ..driver.results import series_writer, write_cycles, write_root_attrs
-from ..driver.stages import empty_tables, remove_above
+from ..driver.stages import empty_tables, remove_above, scaled_stiffness
 from ..errors import InputError
 from ..driver import observables
 from ..driver.observables import box_face_forces
@@ -197,10 +196,8 @@ def stage_scene(doc, c, stage, tables, load_start=None, sleeper_center=None):
     wall ``catch`` at `catch_depth` below it holds the spheres that passed through. Before
     ``load``, every material's stiffness is times ``prep_stiffness_factor``."""
     base = {k: v for k, v in doc.items() if k in ("simulation", "materials")}
-    f = c["prep_stiffness_factor"]
-    if f != 1.0 and stage != "load":
-        base["materials"] = {name: {k: v * f if k in linear.STIFFNESS_KEYS else v for k, v in m.items()}
-                             for name, m in base["materials"].items()}
+    if c["prep_stiffness_factor"] != 1.0 and stage != "load":
+        base["materials"] = scaled_stiffness(base["materials"], c["prep_stiffness_factor"])
     base["simulation"] = {**base.get("simulation", {}), "allow_initial_overlap": True}
     scene = scene_from_dict(base)
     lx, ly, _ = c["box"]
