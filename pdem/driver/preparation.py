@@ -36,9 +36,10 @@ energy, unbalanced force, contacts per particle, top of the bed, ``sleeper_z`` =
 height of the scene's rigid bodies [m], 0 before they are placed) and ``preparation.png``; ParaView snapshots every
 run.snapshot_every steps and at the end of every stage.
 
-The ballast bodies are spheres (`add_cloud`, radius ``radius`` [m] with ``radius_spread`` [-]);
-a clump ballast plugs in by giving `add_cloud` another body generator: the cuts, placements
-and settling are per body, not per sphere shape.
+The ballast bodies are spheres (`add_cloud`, radius ``radius`` [m] with ``radius_spread`` [-]),
+or rigid clumps of one shape if the scene sets ``c["grain"]`` (`add_grain_cloud`; the box
+test's ``[box_test.clumps]``): the cuts (`pdem.driver.stages.remove_above` removes whole
+clumps), placements and settling are per body, not per sphere shape.
 """
 from math import cos, pi, sin
 
@@ -52,7 +53,7 @@ from . import observables
 from .plain import write_snapshot
 from .plots import plot_energy, save_figure, series_figure
 from .results import series_writer
-from .stages import StagedRun, append_bodies
+from .stages import StagedRun, append_bodies, append_tables, clump_tables, next_free_clump
 
 PREPARATION_STAGES = ("pour", "refill", "vibrate", "settle")
 # keys of the pipeline in a scene's table, with defaults (SI; thesis 4.2 and table 5.1)
@@ -111,10 +112,40 @@ def cloud(c, lo_xy, hi_xy, z0, volume, seed, where=("cloud", "in its column")):
 
 def add_cloud(tables, doc, c, lo_xy, hi_xy, z0, volume, seed, first_gid, where):
     """``tables`` with a loose cloud of new ballast spheres (gids from ``first_gid``, material
-    ``c["ballast_material"]``) appended."""
+    ``c["ballast_material"]``) appended; rigid clumps instead if ``c["grain"]`` is given
+    (`add_grain_cloud`)."""
+    if c.get("grain") is not None:
+        return add_grain_cloud(tables, doc, c, lo_xy, hi_xy, z0, volume, seed, first_gid, where)
     pos, radius = cloud(c, lo_xy, hi_xy, z0, volume, seed, where)
     return append_bodies(tables, pos, radius, doc["materials"][c["ballast_material"]]["density"],
                          list(doc["materials"]).index(c["ballast_material"]), first_gid)
+
+
+def add_grain_cloud(tables, doc, c, lo_xy, hi_xy, z0, volume, seed, first_gid, where):
+    """``tables`` with a loose cloud of rigid clumps appended: ``c["grain"]`` = {"members",
+    "member_radii", "mass_model", ...} (one grain about its centre), as many as fill ``volume``
+    [m³] at the packing fraction times the overfill (by the members' volume), each turned at
+    random (`pdem.clump_generators.grain_cloud`), on a lattice from z0 up; member gids from
+    ``first_gid``, clump ids after the tables' largest."""
+    from ..clump_generators import grain_cloud
+    from ..config import scene_from_dict
+
+    g = c["grain"]
+    pos, radius = g["members"], g["member_radii"]
+    n = max(int(np.ceil(c["overfill"] * c["packing_fraction"] * volume / np.sum(4.0 / 3.0 * pi * radius**3))), 1)
+    reach = float(np.max(np.sqrt(np.einsum("ij,ij->i", pos, pos)) + radius))
+    a = 2.0 * reach * 1.05
+    per_layer = np.prod(np.floor((np.asarray(hi_xy) - np.asarray(lo_xy)) / a))
+    if per_layer < 1:
+        raise InputError(f"{where[0]}.clumps: grains of diameter {2 * reach:.4g} m do not fit {where[1]}")
+    top = z0 + np.ceil(n / per_layer) * a + 1e-9
+    grains = grain_cloud(pos, radius, (lo_xy[0], lo_xy[1], z0), (hi_xy[0], hi_xy[1], top), n, seed,
+                         label=f"{where[0]}.clumps")
+    scene = scene_from_dict({k: v for k, v in doc.items() if k in ("simulation", "materials")})
+    new = clump_tables(scene, grains, c["ballast_material"], first_gid, next_free_clump(tables),
+                       mass_model=g["mass_model"], discretization=g["discretization"], samples=g["samples"],
+                       seed=seed, label=f"{where[0]}.clumps")
+    return append_tables(tables, new)
 
 
 def remove_where(tables, outside):

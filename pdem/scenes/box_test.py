@@ -43,7 +43,7 @@ series ``sleeper_load``, ``sleeper_force`` [N, ballast reaction, positive up],
 import numpy as np
 from analysis.schema import BOX_TEST_SERIES
 
-from ..config import check_keys, run_settings, scene_from_dict
+from ..config import CLUMP_KEYS, check_keys, grain_shape, run_settings, scene_from_dict
 from ..driver.cycles import CycleRecorder
 from ..driver.preparation import PREPARATION_DEFAULTS, PREPARATION_STAGES, PreparedRun, add_cloud, \
     check_preparation, plot_preparation
@@ -58,6 +58,8 @@ from ..validate import number
 
 STAGES = PREPARATION_STAGES + ("load",)
 STIFFENED_STAGES = PREPARATION_STAGES + ("stiffen", "load")  # with prep_stiffness_factor < 1
+# keys of [box_test.clumps]: a rigid grain (its shape, member radius, mass model)
+GRAIN_KEYS = CLUMP_KEYS - {"material", "box_lo", "box_hi", "count", "seed", "vel", "breakable", "stress_free"}
 # [box_test] keys and defaults (SPEC.md 2.3, thesis table 5.1; stiffness is in [materials]);
 # the preparation pipeline's keys (radius, seed, settle_*, vibration_* ...) are
 # `pdem.driver.preparation.PREPARATION_DEFAULTS`
@@ -93,7 +95,7 @@ def box_settings(doc):
     """The [box_test] table with defaults, checked (one-line InputError naming the key)."""
     check_keys("scene file", doc, {"simulation", "run", "materials", "box_test"})
     given = doc["box_test"]
-    check_keys("box_test", given, set(DEFAULTS))
+    check_keys("box_test", given, set(DEFAULTS) | {"clumps"})
     c = {**DEFAULTS, **given}
     for k in ("box", "sleeper_size"):
         v = c[k]
@@ -130,10 +132,28 @@ def box_settings(doc):
     for a, name in ((0, "length"), (1, "width")):
         if c["sleeper_size"][a] > c["box"][a]:
             raise InputError(f"box_test.sleeper_size = {c['sleeper_size']!r}: the sleeper's {name} exceeds the box's")
+    c["grain"] = grain_settings(c)
     if "steps" in doc.get("run", {}):
         raise InputError("run.steps: not used by a box test (its stages end on settle_ratio, vibration_time and "
                          "cycles in [box_test]); remove it")
     return c
+
+
+def grain_settings(c):
+    """None for sphere ballast, else the grain of ``[box_test.clumps]`` (rigid clumps: ``shape``
+    and its keys as a ``[[clumps]]`` table, ``mass_model``): {"members", "member_radii",
+    "mass_model", "discretization", "samples"}."""
+    if "clumps" not in c:
+        return None
+    label = "box_test.clumps"
+    g = c["clumps"]
+    check_keys(label, g, GRAIN_KEYS, ("shape",))
+    pos, radius = grain_shape(g, label)
+    if c["cut"] == "center":
+        raise InputError("box_test.cut = 'center': cuts spheres, which would split the clumps of [box_test.clumps]; "
+                         "use cut = 'top' (whole clumps with a member above the cut are removed)")
+    return {"members": pos, "member_radii": radius, "mass_model": g.get("mass_model", "members"),
+            "discretization": g.get("discretization", 0), "samples": g.get("samples", 0)}
 
 
 # ---------------------------------------------------------------------------- geometry
@@ -218,6 +238,8 @@ def stage_scene(doc, c, stage, tables, load_start=None, sleeper_center=None):
         scene.add_box(center, half, c["sleeper_material"], c["sleeper_mass"], blocked="xyXYZ", load=load,
                       damping=scene.settings["damping"], name="sleeper")
     scene.add_sphere_columns(tables["particles"])
+    if "clumps" in tables:
+        scene.add_clump_tables(tables["clumps"], tables["clump_members"])
     return scene
 
 

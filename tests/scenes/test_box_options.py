@@ -11,7 +11,9 @@ Option sets (each a few seconds per run):
   as Yade; a soft sleeper and max_overlap_ratio = 1), vibration off;
 - ``stiffen``: every material 10 times stiffer, prepared at 0.1 of it and stiffened in 0.05 s
   before loading: after the stiffen stage every contact's k_n and k_s are the ones Ip2 gives at
-  the full stiffness (within rounding), and a resume in the middle of it gives the same bits.
+  the full stiffness (within rounding), and a resume in the middle of it gives the same bits;
+- ``clumps``: ballast of rigid 8-sphere clumps (member r = 6 mm) on a stiffer base: every cut
+  removes whole clumps.
 """
 import shutil
 
@@ -70,6 +72,11 @@ base = "two_sided"
     "stiffen": """prep_stiffness_factor = 0.1
 stiffen_time = 0.05
 """,
+    "clumps": """
+[box_test.clumps]
+shape = "ballast8"
+member_radius = 0.006
+""",
 }
 
 needs_mpiexec = pytest.mark.skipif(not MPIEXEC.exists(), reason="multi-rank test: no mpiexec next to the Python "
@@ -88,6 +95,8 @@ def scene_text(name):
         for soft, stiff in (("2.8e7", "2.8e8"), ("2.8e6", "2.8e7"), ("2.8e5", "2.8e6")):  # steel, ballast, rubber
             text = text.replace(f"young = {soft}", f"young = {stiff}")
         text = text.replace("checkpoint_keep = 0", "checkpoint_keep = 0\ncheckpoint_every = 200")
+    if name == "clumps":  # small members sink into the soft base under the load: a 10 times stiffer base
+        text = text.replace("young = 2.8e5", "young = 2.8e6")
     return text
 
 
@@ -172,11 +181,21 @@ def bottom_of(stdout):
 
 
 @needs_mpiexec
-@pytest.mark.parametrize("name", ["yade", "overlap", "stiffen"])
+@pytest.mark.parametrize("name", ["yade", "overlap", "stiffen", "clumps"])
 def test_same_bits_on_2_ranks(runs, tmp_path, name):
     d, _, scene = runs[name]
     run_pdem(2, scene, tmp_path / "r2")
     assert_same(d, tmp_path / "r2")
+
+
+def test_clump_ballast_is_cut_by_whole_clumps(runs):
+    d, out, _ = runs["clumps"]
+    tables = read_checkpoint(list_checkpoints(d / "checkpoints")[-1][1])[0]
+    clump = tables["particles"]["clump"]
+    ids, members = np.unique(clump, return_counts=True)
+    assert len(ids) > 50 and np.all(ids >= 0) and np.all(members == 8)
+    assert sorted(tables["clumps"]["id"].tolist()) == ids.tolist()
+    assert len(cycles(d)["cycle"]) == 2
 
 
 def step_of(stdout, text):

@@ -152,11 +152,22 @@ DOC = {"materials": {"ballast": {}, "steel": {}, "rubber": {}}, "box_test": {}}
     ("prep_stiffness_factor", 0.0, "box_test.prep_stiffness_factor = 0.0: must be in (0, 1]"),
     ("prep_stiffness_factor", 2.0, "box_test.prep_stiffness_factor = 2.0: must be in (0, 1]"),
     ("stiffen_time", -1.0, "box_test.stiffen_time = -1.0"),
+    ("clumps", {"shape": "ballast8", "breakable": True}, "box_test.clumps.breakable: unknown key"),
+    ("clumps", {"shape": "pebble"}, "box_test.clumps.shape = 'pebble': must be one of"),
 ])
 def test_bad_option_one_line(key, value, message):
     with pytest.raises(InputError) as e:
         box_settings({**DOC, "box_test": {key: value}})
     assert message in str(e.value) and "\n" not in str(e.value)
+
+
+def test_clump_ballast_refuses_the_centre_cut_and_keeps_the_grain():
+    with pytest.raises(InputError, match="box_test.cut = 'center': cuts spheres, which would split the clumps"):
+        box_settings({**DOC, "box_test": {"cut": "center", "sleeper_placement": "on_top",
+                                          "clumps": {"shape": "ballast8"}}})
+    g = box_settings({**DOC, "box_test": {"clumps": {"shape": "ballast8"}}})["grain"]
+    assert len(g["member_radii"]) == 8 and np.all(g["member_radii"] == 0.0085) and g["mass_model"] == "members"
+    assert box_settings(DOC)["grain"] is None
 
 
 def test_defaults_are_pdem_s_choices():
