@@ -45,3 +45,12 @@ def test_study_files_expand(tmp_path, name, key, values):
             m = d["materials"]
             assert m["steel"]["young"] == pytest.approx(10 * m["ballast"]["young"])
             assert m["rubber"]["young"] == pytest.approx(0.1 * m["ballast"]["young"])
+
+
+def test_clump_study_sets_the_8_sphere_grain_on_one_case(tmp_path):
+    got = members("box_clumps", tmp_path)
+    assert len(got) == 6
+    shapes = sorted(d["box_test"].get("clumps", {}).get("shape", "spheres") for d in got.values())
+    assert shapes == ["ballast8"] * 3 + ["spheres"] * 3
+    for d in got.values():
+        assert d["materials"]["ballast"]["young"] == 3.0e6 and d["materials"]["rubber"]["young"] == 3.0e5
