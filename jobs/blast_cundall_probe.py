@@ -1,5 +1,6 @@
-"""Probe of an open question of the blast layer (docs/blast.md, "Open"): Cundall damping with the
-viscous law keeps a settled column of grains agitated.
+"""Probe of a question of the blast layer (docs/blast.md, "Resolved questions"): does Cundall
+damping with the viscous law keep a settled column of grains agitated? (No: a loose column
+collapses slowly, fed by gravity.)
 
     .venv/bin/python jobs/blast_cundall_probe.py [--damping 0.3] [--dt-safety 0.8]
         [--rolling-stiffness 11.3] [--rolling-coefficient 0.1] [--damping-ratio 0.2] [--steps 300000]
