@@ -17,6 +17,11 @@ A scene file with a ``[box_test]`` table (keys and defaults in `DEFAULTS`, units
 5. ``load``     the sleeper carries a haversine force ``f_min`` ↔ ``f_max`` [N] at
                 ``frequency`` [Hz] for ``cycles`` cycles (`pdem.loads.Haversine`, pushing down).
 
+With ``prep_stiffness_factor`` f < 1 (law linear) stages 1–4 run with every material's young
+times f, and a ``stiffen`` stage before ``load`` raises it to the materials' over ``stiffen_time``
+(`BoxTestRun.stiffen_program`), then settles. With a ``[box_test.clumps]`` table the ballast is
+rigid clumps of that grain (`grain_settings`; `pdem.driver.preparation.add_grain_cloud`).
+
 Options for what the thesis leaves open (``CHOICES``; docs/box_test.md "Options"): ``cut``
 ("top" | "center"), ``sleeper_placement`` ("cut" | "on_top", `sleeper_on_top`), ``refill``
 ("beside" | "whole"), ``waveform`` ("haversine" | "half_sine"), ``base`` ("one_sided" |
