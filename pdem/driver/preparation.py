@@ -97,16 +97,20 @@ def cloud_count(c, volume):
     return max(int(np.ceil(c["overfill"] * c["packing_fraction"] * volume / (4.0 / 3.0 * pi * mean_r3))), 1)
 
 
+def lattice_top(lo_xy, hi_xy, z0, n, spacing):
+    """Top [m] of ``n`` lattice sites of ``spacing`` [m] stacked over the rectangle lo_xy..hi_xy
+    from z0 up, or None if not one site fits in a layer."""
+    per_layer = np.prod(np.floor((np.asarray(hi_xy) - np.asarray(lo_xy)) / spacing))
+    return None if per_layer < 1 else z0 + np.ceil(n / per_layer) * spacing
+
+
 def cloud(c, lo_xy, hi_xy, z0, volume, seed, where=("cloud", "in its column")):
     """A loose cloud filling ``volume`` over the rectangle lo_xy..hi_xy, from height z0 up.
     ``where`` names the table and the place in the error if the spheres do not fit."""
     n = cloud_count(c, volume)
-    r_max = c["radius"] * (1 + c["radius_spread"])
-    a = 2 * r_max * 1.05
-    per_layer = np.prod(np.floor((np.asarray(hi_xy) - np.asarray(lo_xy)) / a))
-    if per_layer < 1:
+    top = lattice_top(lo_xy, hi_xy, z0, n, 2 * c["radius"] * (1 + c["radius_spread"]) * 1.05)
+    if top is None:
         raise InputError(f"{where[0]}.radius = {c['radius']!r}: spheres do not fit {where[1]}")
-    top = z0 + np.ceil(n / per_layer) * a
     return loose_cloud([lo_xy[0], lo_xy[1], z0], [hi_xy[0], hi_xy[1], top], n, c["radius"], c["radius_spread"], seed)
 
 
@@ -134,12 +138,10 @@ def add_grain_cloud(tables, doc, c, lo_xy, hi_xy, z0, volume, seed, first_gid, w
     pos, radius = g["members"], g["member_radii"]
     n = max(int(np.ceil(c["overfill"] * c["packing_fraction"] * volume / np.sum(4.0 / 3.0 * pi * radius**3))), 1)
     reach = float(np.max(np.sqrt(np.einsum("ij,ij->i", pos, pos)) + radius))
-    a = 2.0 * reach * 1.05
-    per_layer = np.prod(np.floor((np.asarray(hi_xy) - np.asarray(lo_xy)) / a))
-    if per_layer < 1:
+    top = lattice_top(lo_xy, hi_xy, z0, n, 2.0 * reach * 1.05)  # grain_cloud's spacing (gap 0.05)
+    if top is None:
         raise InputError(f"{where[0]}.clumps: grains of diameter {2 * reach:.4g} m do not fit {where[1]}")
-    top = z0 + np.ceil(n / per_layer) * a + 1e-9
-    grains = grain_cloud(pos, radius, (lo_xy[0], lo_xy[1], z0), (hi_xy[0], hi_xy[1], top), n, seed,
+    grains = grain_cloud(pos, radius, (lo_xy[0], lo_xy[1], z0), (hi_xy[0], hi_xy[1], top + 1e-9), n, seed,
                          label=f"{where[0]}.clumps")
     scene = scene_from_dict({k: v for k, v in doc.items() if k in ("simulation", "materials")})
     new = clump_tables(scene, grains, c["ballast_material"], first_gid, next_free_clump(tables),

@@ -480,7 +480,7 @@ class BoxTestRun(PreparedRun):
         finish(self.out, self.results, sim, self.state, self.c, self.path, self.comm.size, wall_s, self.STAGES)
 
 
-def finish(out, results, sim, state, c, path, ranks, wall_s, stages=STAGES):
+def finish(out, results, sim, state, c, path, ranks, wall_s, stages):
     """Rank 0 at the end: plots, the analysis of the cycles and summary.txt (with timing): the
     scene's finishing step calls the analysis entry point `analysis.__main__.main`."""
     from analysis.__main__ import main as analysis_main
