@@ -15,9 +15,21 @@ Storage: the rows the contact loop reads (`pdem.contact.geometry.SphereBox`): ``
 [n, 9] = centre, half extents, velocity and ``kernel_i`` [n, 1] = material; the named
 attributes are views of them.
 
-Imports nothing from pdem but errors and loads.
+A box may instead have a surface of member spheres (``members``: centres relative to its centre
+[m], all of ``member_radius`` [m]): the thesis's clump sleeper, 2280 steel spheres of 5 mm fused
+into one body that translates along z only (thesis 5.2, fig. 5.6). Such a box has no flat faces:
+spheres touch its members (`BoxMembers`, `pdem.contact.geometry.SphereMember`), and the force
+of those contacts, summed per box, drives it like the force on a flat box. A clump that never
+rotates is exactly a translating box with its members at fixed offsets, so this is Yade's clump
+with blocked rotations and x, y translations, without the clump's per-member bookkeeping and
+without its slab ownership (boxes are replicated on every rank).
+
+Imports nothing from pdem but errors, loads, state and validate.
 """
+from math import sqrt
+
 import numpy as np
+from numba import njit
 
 from .errors import InputError
 from .loads import Constant, Haversine, Impulse, SleeperLoad
@@ -28,8 +40,33 @@ DOF_LETTERS = "xyzXYZ"
 ROTATIONS = 0b111000
 
 
+@njit(cache=True)
 def _sign(x):
     return 1.0 if x > 0.0 else (-1.0 if x < 0.0 else 0.0)
+
+
+@njit(cache=True)
+def leapfrog_boxes(kernel_f, blocked, damping, mass, contact_force, load_force, gravity, dt):
+    """The leapfrog of every box (centre ``kernel_f[:, 0:3]``, velocity ``kernel_f[:, 6:9]``):
+    per free translation a = (F_contact + F_load)/m + g, Cundall-damped by the box's λ_D,
+    v += Δt a; then x += Δt v. Returns the largest displacement of this step [m]."""
+    moved = 0.0
+    for b in range(mass.shape[0]):
+        lam = damping[b]
+        for c in range(3):
+            if blocked[b] & (1 << c):
+                continue
+            a = (contact_force[b, c] + load_force[b, c]) / mass[b] + gravity[c]
+            if lam > 0.0:
+                a *= 1.0 - lam * _sign(a * (kernel_f[b, 6 + c] + 0.5 * dt * a))
+            kernel_f[b, 6 + c] += dt * a
+        s2 = 0.0
+        for c in range(3):
+            step = kernel_f[b, 6 + c] * dt
+            kernel_f[b, c] += step
+            s2 += step * step
+        moved = max(moved, sqrt(s2))
+    return moved
 
 
 def blocked_mask(label, blocked, fixed):
@@ -66,6 +103,7 @@ class Boxes:
         # per-step outputs, identical on every rank
         self.contact_force = np.zeros((0, 3))
         self.load_force = np.zeros((0, 3))
+        self.members = BoxMembers()
 
     center = property(lambda self: self.kernel_f[:, 0:3])
     half = property(lambda self: self.kernel_f[:, 3:6])
@@ -76,12 +114,20 @@ class Boxes:
         return len(self.mass)
 
     def search_arrays(self):
-        """Arguments of `pdem.neighbors.build_box_candidates` after the particles."""
-        return self.center, self.half
+        """Arguments of `pdem.neighbors.build_box_candidates` after the particles (boxes with
+        member spheres have no flat faces: they are left out)."""
+        return self.center, self.half, self.members.count_of(len(self)) == 0
+
+    def smooth_count(self):
+        """Number of boxes with flat faces (no member spheres)."""
+        return int(np.count_nonzero(self.members.count_of(len(self)) == 0))
 
     def add(self, center, half_extents, material, mass, *, blocked=None, fixed=False, load=None,
-            direction=(0.0, 0.0, -1.0), velocity=(0.0, 0.0, 0.0), damping=0.0, name=""):
-        """Validate and append one box; returns its index."""
+            direction=(0.0, 0.0, -1.0), velocity=(0.0, 0.0, 0.0), damping=0.0, name="", members=None,
+            member_radius=None, member_material=None):
+        """Validate and append one box; returns its index. ``members`` [k, 3] (centres relative to
+        the box centre [m]) with ``member_radius`` [m] give it a surface of spheres instead of flat
+        faces (``member_material`` defaults to the box's)."""
         label = f"boxes.{name}" if name else f"boxes[{len(self)}]"
         c = vector3(f"{label}.center", center)
         h = vector3(f"{label}.half_extents", half_extents)
@@ -110,8 +156,18 @@ class Boxes:
         self.names.append(name or str(len(self.names)))
         self.contact_force = np.zeros((len(self), 3))
         self.load_force = np.zeros((len(self), 3))
+        if members is not None:
+            self.members.add(label, len(self) - 1, members, member_radius,
+                             material if member_material is None else member_material, h)
+            self.place_members()
         return len(self) - 1
 
+    def place_members(self):
+        """Member sphere rows at their box's centre and velocity (after the boxes moved)."""
+        if len(self.members):
+            m = self.members
+            m.kernel_f[:, 0:3] = self.center[m.box] + m.offset
+            m.kernel_f[:, 3:6] = self.velocity[m.box]
 
     def index(self, name_or_index):
         """Index of a box from its name or index."""
@@ -133,20 +189,9 @@ class Boxes:
         """Leapfrog of every box from ``contact_force`` and the load at t; returns the largest
         displacement [m] of this step (for the neighbour-list rebuild criterion)."""
         self.load_force = self.applied(t)
-        moved = 0.0
-        for b in range(len(self)):
-            bl = int(self.blocked[b])
-            lam = self.damping[b]
-            for c in range(3):
-                if bl & (1 << c):
-                    continue
-                a = (self.contact_force[b, c] + self.load_force[b, c]) / self.mass[b] + gravity[c]
-                if lam > 0.0:
-                    a *= 1.0 - lam * _sign(a * (self.velocity[b, c] + 0.5 * dt * a))
-                self.velocity[b, c] += dt * a
-            step = self.velocity[b] * dt
-            self.center[b] += step
-            moved = max(moved, float(np.sqrt(step @ step)))
+        moved = leapfrog_boxes(self.kernel_f, self.blocked, self.damping, self.mass, self.contact_force,
+                               self.load_force, np.asarray(gravity, np.float64), dt)
+        self.place_members()
         return moved
 
     def spec(self):
@@ -163,8 +208,10 @@ class Boxes:
                 damping=float(lam),
                 direction=d.tolist(),
                 load=None if ld is None else ld.spec(),
+                **({"members": int(k), "member_radius": float(self.members.radius[self.members.box == b][0])}
+                   if k else {}),
             )
-            for n, c, h, v, m, mt, bl, lam, d, ld in zip(
+            for b, (n, c, h, v, m, mt, bl, lam, d, ld, k) in enumerate(zip(
                 self.names,
                 self.center,
                 self.half,
@@ -175,5 +222,55 @@ class Boxes:
                 self.damping,
                 self.direction,
                 self.loads,
-            )
+                self.members.count_of(len(self)),
+            ))
         ]
+
+
+class BoxMembers:
+    """The member spheres of every box that has them, as the boundary rows of the contact kind
+    ``sphere_member`` (`pdem.contact.geometry.SphereMember`): ``kernel_f`` [k, 7] = centre [m],
+    velocity [m/s] (those of its box, `Boxes.place_members`) and radius [m]; ``kernel_i`` [k, 2]
+    = material and box index; ``offset`` [k, 3] the centre relative to the box's [m]. Members
+    of one box are consecutive, in declaration order."""
+
+    def __init__(self):
+        self.kernel_f = np.zeros((0, 7))
+        self.kernel_i = np.zeros((0, 2), np.int64)
+        self.offset = np.zeros((0, 3))
+
+    material = property(lambda self: self.kernel_i[:, 0])
+    box = property(lambda self: self.kernel_i[:, 1])
+    radius = property(lambda self: self.kernel_f[:, 6])
+
+    def __len__(self):
+        return len(self.offset)
+
+    @property
+    def names(self):
+        return [f"member {k} of box {b}" for k, b in enumerate(self.box)]
+
+    def count_of(self, n_boxes):
+        """[n_boxes] number of members of each box."""
+        return np.bincount(self.box, minlength=n_boxes)[:n_boxes]
+
+    def search_arrays(self):
+        """Arguments of `pdem.neighbors.build_member_candidates` after the particles."""
+        return self.kernel_f[:, 0:3], self.radius
+
+    def add(self, label, box, offsets, radius, material, half):
+        """Append the members of box ``box`` (index); ``half`` its half extents [m]."""
+        off = np.asarray(offsets, dtype=float)
+        if off.ndim != 2 or off.shape[1] != 3 or len(off) < 1 or not np.all(np.isfinite(off)):
+            raise InputError(f"{label}.members: must be a non-empty [k, 3] array of finite centres [m] "
+                             f"relative to the box centre, got shape {off.shape}")
+        r = number(f"{label}.member_radius", radius, 0.0, lo_open=True, allow="a number > 0 [m]")
+        if np.any(np.abs(off) + r > half * (1.0 + 1e-9)):
+            raise InputError(f"{label}.members: every member sphere must lie inside the box's extents "
+                             f"(|offset| + member_radius <= half_extents = {half.tolist()})")
+        rows = np.zeros((len(off), 7))
+        rows[:, 6] = r
+        ints = np.column_stack([np.full(len(off), material, np.int64), np.full(len(off), box, np.int64)])
+        self.kernel_f = np.vstack([self.kernel_f, rows])
+        self.kernel_i = np.vstack([self.kernel_i, ints])
+        self.offset = np.vstack([self.offset, off])

@@ -155,6 +155,7 @@ def load_state(sim, tables):
     if sim.boxes is not None and "boxes" in tables:
         sim.boxes.center[:] = tables["boxes"]["center"]
         sim.boxes.velocity[:] = tables["boxes"]["velocity"]
+        sim.boxes.place_members()
     # contacts: every rank gets every row; `replace` at the rebuild keeps the keys it needs
     for kind in sim.kinds:
         name = f"contacts/{kind.name}"

@@ -3,10 +3,12 @@
 Every body's force and torque are summed from zero in this order: its sphere partners by
 increasing gid, then walls by index, then facets by index. The order depends only on global ids
 and indices, never on rows, threads or ranks, so any decomposition gives the same bits.
-Also: order-independent totals on walls (exact sums, `pdem.exactsum`).
+Also: order-independent totals on boundary bodies (walls, boxes: exact sums, `pdem.exactsum`).
 """
-from numba import prange
+import numpy as np
+from numba import njit, prange
 
+from .exactsum import NLIMBS, acc_add, acc_normalize
 from .kernels import kernel
 
 
@@ -53,3 +55,20 @@ def zero_forces(n_local, force, torque):
         for c in range(3):
             force[b, c] = 0.0
             torque[b, c] = 0.0
+
+
+@njit(cache=True)
+def boundary_totals_acc(n, state, j, force, body_of, n_bodies):
+    """Exact accumulators (`pdem.exactsum`) of the force of the spheres on each boundary body:
+    Σ −force[p] over the real rows p (state 1) of a boundary contact list, into body
+    ``body_of[j[p]]``: int64[n_bodies * 3, NLIMBS], body-major (finish with
+    `pdem.parallel.comm` ``exact_sum_accumulators``)."""
+    accs = np.zeros((n_bodies * 3, NLIMBS), np.int64)
+    for p in range(n):
+        if state[p] == 1:
+            g = body_of[j[p]]
+            for c in range(3):
+                acc_add(accs[g * 3 + c], -force[p, c])
+    for r in range(n_bodies * 3):
+        acc_normalize(accs[r])
+    return accs

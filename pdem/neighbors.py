@@ -328,14 +328,57 @@ def _near_box(pos, s, reach, c, h):
 
 
 @njit(cache=True)
-def build_box_candidates(pos, radius, n_local, skin, box_center, box_half):
-    """(ptr[n_local+1], sphere[m], box[m]): boxes within r + skin of each owned sphere (distance
-    from the centre to the box's AABB), in box index order per sphere."""
+def build_box_candidates(pos, radius, n_local, skin, box_center, box_half, box_smooth):
+    """(ptr[n_local+1], sphere[m], box[m]): boxes with flat faces (``box_smooth``) within r + skin
+    of each owned sphere (distance from the centre to the box's AABB), in box index order per sphere."""
     near = np.zeros((n_local, box_center.shape[0]), np.bool_)
     for s in range(n_local):
         for b in range(box_center.shape[0]):
-            near[s, b] = _near_box(pos, s, radius[s] + skin, box_center[b], box_half[b])
+            near[s, b] = box_smooth[b] and _near_box(pos, s, radius[s] + skin, box_center[b], box_half[b])
     return candidates_from_mask(near)
+
+
+@njit(cache=True)
+def build_member_candidates(pos, radius, n_local, skin, member_pos, member_radius):
+    """(ptr[n_local+1], sphere[m], member[m]): member spheres of boxes (`pdem.boxes.BoxMembers`)
+    whose centre lies within r + r_member + skin of each owned sphere's, in member index order
+    per sphere. Spheres outside the members' bounding box (grown by the largest reach) are
+    skipped at once."""
+    nm = member_pos.shape[0]
+    lo = np.full(3, np.inf)
+    hi = np.full(3, -np.inf)
+    r_member = 0.0
+    for m in range(nm):
+        r_member = max(r_member, member_radius[m])
+        for a in range(3):
+            lo[a] = min(lo[a], member_pos[m, a])
+            hi[a] = max(hi[a], member_pos[m, a])
+    ptr = np.zeros(n_local + 1, np.int64)
+    for sweep in range(2):  # count, then fill
+        if sweep == 1:
+            ps = np.empty(ptr[n_local], np.int64)
+            pm = np.empty(ptr[n_local], np.int64)
+        k = 0
+        for s in range(n_local):
+            reach = radius[s] + r_member + skin
+            outside = False
+            for a in range(3):
+                outside = outside or pos[s, a] < lo[a] - reach or pos[s, a] > hi[a] + reach
+            if not outside:
+                for m in range(nm):
+                    d2 = 0.0
+                    for a in range(3):
+                        e = pos[s, a] - member_pos[m, a]
+                        d2 += e * e
+                    reach_m = radius[s] + member_radius[m] + skin
+                    if d2 <= reach_m * reach_m:
+                        if sweep == 1:
+                            ps[k] = s
+                            pm[k] = m
+                        k += 1
+            if sweep == 0:
+                ptr[s + 1] = k
+    return ptr, ps, pm
 
 
 @njit(cache=True)

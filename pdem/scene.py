@@ -348,7 +348,8 @@ class Scene:
         return self.facets.add(vertices, m, vectors(f"{label}.velocity", velocity, 1)[0], name=name)
 
     def add_box(self, center, half_extents, material, mass, *, blocked=None, fixed=False, load=None,
-                direction=(0.0, 0.0, -1.0), velocity=(0.0, 0.0, 0.0), damping=0.0, name=""):
+                direction=(0.0, 0.0, -1.0), velocity=(0.0, 0.0, 0.0), damping=0.0, name="", members=None,
+                member_radius=None):
         """Add a rigid axis-aligned box (sleeper, platen): one body of `mass` [kg] spanning
         ``center ± half_extents`` [m]; returns its index.
 
@@ -356,11 +357,14 @@ class Scene:
         string of blocked DOFs from "xyzXYZ" and must contain XYZ (boxes do not rotate; default
         "XYZ": free translations). `load` is a `pdem.loads` program (e.g. `Haversine`) whose
         magnitude [N] pushes along `direction` (default −z); `damping` is the box's own Cundall
-        λ_D (default 0: the box is not damped)."""
+        λ_D (default 0: the box is not damped). `members` [k, 3] (centres relative to `center`
+        [m]) of spheres of `member_radius` [m] of the box's material replace its flat faces: the
+        thesis's clump sleeper (`pdem.boxes.BoxMembers`)."""
         label = f"boxes.{name}" if name else f"boxes[{len(self.boxes)}]"
         m = self._material_index(f"{label}.material", material)
         return self.boxes.add(center, half_extents, m, mass, blocked=blocked, fixed=fixed, load=load,
-                              direction=direction, velocity=velocity, damping=damping, name=name)
+                              direction=direction, velocity=velocity, damping=damping, name=name, members=members,
+                              member_radius=member_radius)
 
     # ------------------------------------------------------------------ build
     def spheres(self):

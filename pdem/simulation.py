@@ -22,7 +22,7 @@ import numpy as np
 
 from . import checkpoint_state, diagnostics, integrator, neighbors, timestep
 from .clumps import Clumps
-from .contact.kinds import make_kinds
+from .contact.kinds import box_kinds, make_kinds
 from .guard import Guard
 from .state import DOF_ALL, FIELDS
 
@@ -147,9 +147,18 @@ class Simulation:
         for kind in self.kinds:  # the first (sphere pairs) sets the sums, the others add
             kind.add_forces(self)
         if self.boxes is not None:
-            self.boxes.contact_force = self.kind("sphere_box").totals(self.comm)
+            self.boxes.contact_force = self.box_contact_force()
         if self.clumps is not None:
             self.clumps.sum_forces(self.particles)
+
+    def box_contact_force(self):
+        """[n_boxes, 3] force of the spheres on each rigid box [N] (collective, the same bits on every
+        rank): on its flat faces or on its member spheres (a box has one or the other)."""
+        total = None
+        for kind in box_kinds(self):
+            t = kind.totals(self.comm)
+            total = t if total is None else total + t
+        return total
 
     def integrate(self):
         p = self.particles
@@ -161,7 +170,7 @@ class Simulation:
                                 self.gravity, self.dt)
         if self.clumps is not None:  # moves the clumps and overwrites their members' rows
             self.clumps.integrate(p, self.gravity, self.damping, self.dt)
-        if len(self.walls):
+        if len(self.walls) and self.walls.velocity.any():  # (a wall at rest stays: x + 0·Δt = x)
             before = self.walls.position.copy()
             self.walls.move(self.dt)
             self.boundary_moved += float(np.max(np.abs(self.walls.position - before)))

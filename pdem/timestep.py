@@ -27,6 +27,7 @@ import numpy as np
 from numba import njit
 
 from .clumps import add_member_stiffness
+from .contact.kinds import box_kinds
 from .state import DOF_ALL
 
 
@@ -131,9 +132,8 @@ def stable_dt(sim):
     run with one blows up (`pdem.diagnostics.dt_text`)."""
     p = sim.particles
     k_dt = contact_dt(sim)
-    boxes = sim.kind("sphere_box")
-    if boxes is not None:  # the box's own mass–spring step, from the global sum of its contacts
-        k_dt = min(k_dt, box_dt(sim.boxes.mass, sim.boxes.blocked, boxes.stiffness_totals(sim.comm)))
+    for kind in box_kinds(sim):  # the box's own mass–spring step, from the global sum of its contacts
+        k_dt = min(k_dt, box_dt(sim.boxes.mass, sim.boxes.blocked, kind.stiffness_totals(sim.comm)))
     k_dt = sim.comm.allreduce_min(k_dt)
     nl = p.n_local
     young = sim.law.pwave_modulus(sim.materials.column(sim.law.PWAVE_KEY)[p.material[:nl]], p.radius[:nl])

@@ -9,9 +9,10 @@ loop (`pdem.contact.loops`) calls; a geometry knows nothing of forces (that is t
     contact that opened, pen < 0: a frictional Law2 deletes it, a law with bonds
     (``TENSILE``) decides) or `CONTACT`, both with the unit normal n (from body 1 to body 2)
     and the overlap pen [m].
-``ip2_args(i, j, radius, material, mass, other_i) -> (mat1, mat2, r1, r2, m1, m2)``
+``ip2_args(i, j, radius, material, mass, other_f, other_i) -> (mat1, mat2, r1, r2, m1, m2)``
     what Ip2 sees at creation: the materials of body 1 and 2 in Yade's order (a wall or facet
-    is body 1), the reference radii (sphere: r; wall: r and r; facet: 2r and r) and the masses
+    is body 1), the reference radii (sphere: r; wall: r and r; facet: 2r and r; box member: its
+    radius and r) and the masses
     [kg] (inf for a boundary).
 ``spins(i, j, angvel) -> (ω1+ω2, ω2−ω1)`` [rad/s]: for the twist of ScGeom::precompute and for
     rolling laws.
@@ -114,7 +115,7 @@ def _ss_contact(fresh, i, j, pos, radius, other_f, other_i):
 
 
 @njit(inline="always", cache=True)
-def _ss_ip2(i, j, radius, material, mass, other_i):
+def _ss_ip2(i, j, radius, material, mass, other_f, other_i):
     return material[i], material[j], radius[i], radius[j], mass[i], mass[j]
 
 
@@ -190,7 +191,7 @@ def _wall_contact(fresh, s, w, pos, radius, other_f, other_i):
 
 
 @njit(inline="always", cache=True)
-def _wall_ip2(s, w, radius, material, mass, other_i):
+def _wall_ip2(s, w, radius, material, mass, other_f, other_i):
     return _boundary_ip2(s, w, radius, material, mass, other_i, 2, 1.0)
 
 
@@ -312,7 +313,7 @@ def _facet_contact(fresh, s, f, pos, radius, other_f, other_i):
 
 
 @njit(inline="always", cache=True)
-def _facet_ip2(s, f, radius, material, mass, other_i):
+def _facet_ip2(s, f, radius, material, mass, other_f, other_i):
     return _boundary_ip2(s, f, radius, material, mass, other_i, 0, 2.0)
 
 
@@ -386,7 +387,7 @@ def _box_contact(fresh, s, b, pos, radius, other_f, other_i):
 
 
 @njit(inline="always", cache=True)
-def _box_ip2(s, b, radius, material, mass, other_i):
+def _box_ip2(s, b, radius, material, mass, other_f, other_i):
     return _boundary_ip2(s, b, radius, material, mass, other_i, 0, 1.0)
 
 
@@ -417,4 +418,61 @@ class SphereBox:
     contact_point = _sphere_contact_point
 
 
-GEOMETRIES = {g.name: g for g in (SphereSphere, SphereWall, SphereFacet, SphereBox)}
+# ---------------------------------------------------------------------------- sphere–box member
+@njit(inline="always", cache=True)
+def _member_contact(fresh, s, m, pos, radius, other_f, other_i):
+    """Ig2_Sphere_Sphere_ScGeom with the member (row m of `pdem.boxes.BoxMembers`) as body 1."""
+    dx = pos[s, 0] - other_f[m, 0]
+    dy = pos[s, 1] - other_f[m, 1]
+    dz = pos[s, 2] - other_f[m, 2]
+    d2 = dot3(dx, dy, dz, dx, dy, dz)
+    rs = other_f[m, 6] + radius[s]
+    if fresh and rs * rs - d2 < 0.0:
+        return SKIP, 0.0, 0.0, 0.0, 0.0
+    dist = sqrt(d2)
+    pen = rs - dist
+    return OPEN if pen < 0.0 else CONTACT, dx / dist, dy / dist, dz / dist, pen
+
+
+@njit(inline="always", cache=True)
+def _member_ip2(s, m, radius, material, mass, other_f, other_i):
+    return other_i[m, 0], material[s], other_f[m, 6], radius[s], inf, mass[s]
+
+
+@njit(inline="always", cache=True)
+def _member_relative_velocity(s, m, nx, ny, nz, pen, pos, vel, angvel, radius, other_f):
+    """Yade's sphere–sphere relative velocity with body 1 the member, translating with its box
+    without spin: ((v2 − v1) α + ω2 × (−r2 n)), α = (r1 + r2)/(r1 + r2 − pen)."""
+    r2 = radius[s]
+    rs = other_f[m, 6] + r2
+    alpha = rs / (rs - pen)
+    ax = (vel[s, 0] - other_f[m, 3]) * alpha
+    ay = (vel[s, 1] - other_f[m, 4]) * alpha
+    az = (vel[s, 2] - other_f[m, 5]) * alpha
+    bx, by, bz = cross3(angvel[s, 0], angvel[s, 1], angvel[s, 2], (-r2) * nx, (-r2) * ny, (-r2) * nz)
+    return ax + bx, ay + by, az + bz
+
+
+@njit(inline="always", cache=True)
+def _member_contact_velocity(s, m, nx, ny, nz, pen, pos, vel, angvel, radius, other_f):
+    return _flat_contact_velocity(s, nx, ny, nz, pen, vel, angvel, radius, other_f[m, 3], other_f[m, 4],
+                                  other_f[m, 5])
+
+
+class SphereMember:
+    """A sphere on a member sphere of a rigid box (`pdem.boxes.BoxMembers`: the thesis's clump
+    sleeper): the sphere–sphere geometry and relative velocity with the member as body 1, moving
+    with its box and never spinning; the row holds the force on the sphere."""
+
+    name = "sphere_member"
+    TWO_PARTICLES = False
+    contact = _member_contact
+    ip2_args = _member_ip2
+    spins = _sphere_spins
+    relative_velocity = _member_relative_velocity
+    contact_velocity = _member_contact_velocity
+    levers = _sphere_lever
+    contact_point = _sphere_contact_point
+
+
+GEOMETRIES = {g.name: g for g in (SphereSphere, SphereWall, SphereFacet, SphereBox, SphereMember)}

@@ -16,7 +16,7 @@ import numpy as np
 from .. import forces, neighbors
 from ..clumps import drop_same_clump
 from ..contacts import KEY_SHIFT_SPHERE, ContactList, index_pair_keys, sphere_pair_keys
-from .geometry import SphereBox, SphereFacet, SphereSphere, SphereWall
+from .geometry import SphereBox, SphereFacet, SphereMember, SphereSphere, SphereWall
 from .loops import NORMAL_COLUMNS, make_pair_loop
 
 _NO_ROWS_F = np.zeros((0, 1))
@@ -153,10 +153,13 @@ class BoundaryContacts(ContactKind):
     """Spheres against replicated boundaries (walls, facets, boxes): candidates per owned sphere
     in boundary index order; the row holds the force on the sphere."""
 
-    def __init__(self, geometry, law, boundary, candidates):
+    def __init__(self, geometry, law, boundary, candidates, body_of=None, n_bodies=None):
         super().__init__(geometry, law)
         self.boundary = boundary
         self._candidates = candidates
+        # the body each boundary row belongs to (a box member: its box) and how many bodies
+        self.body_of = np.arange(len(boundary)) if body_of is None else np.ascontiguousarray(body_of, np.int64)
+        self.n_bodies = len(boundary) if n_bodies is None else n_bodies
 
     def rebuild(self, sim, cell):
         p = sim.particles
@@ -172,20 +175,21 @@ class BoundaryContacts(ContactKind):
         forces.add_sphere_contacts(p.n_local, self.ptr, c.force, c.torque, p.force, p.torque)
 
     def totals(self, comm):
-        """[n_boundaries, 3] total force of the spheres on each boundary [N]: an exact sum over the
-        contact rows of all ranks (each contact is held by the owner of its sphere), so every
-        rank gets the same bits whatever the rank count."""
-        rows = self.contacts.real_rows()
-        return comm.exact_sum_groups(-self.contacts.force[rows], self.contacts.j[rows], len(self.boundary))
+        """[n_bodies, 3] total force of the spheres on each boundary body (a box with members: on
+        the box) [N]: an exact sum over the contact rows of all ranks (each contact is held by the
+        owner of its sphere), so every rank gets the same bits whatever the rank count."""
+        c = self.contacts
+        accs = forces.boundary_totals_acc(c.n, c.state, c.j, c.force, self.body_of, self.n_bodies)
+        return comm.exact_sum_accumulators(accs).reshape(self.n_bodies, 3)
 
     def stiffness_totals(self, comm):
-        """[n_boundaries] Σ (k_n + k_s) over each boundary's real contacts, summed exactly over all
+        """[n_bodies] Σ (k_n + k_s) over each boundary body's real contacts, summed exactly over all
         ranks [N/m]."""
         rows = self.contacts.real_rows()
         kn, ks = self.law.dt_stiffness(self.contacts.params[rows], self.contacts.history[rows],
                                        self.contacts.overlap[rows])
         k = (np.asarray(kn, np.float64) + np.asarray(ks, np.float64)).reshape(-1, 1)
-        return comm.exact_sum_groups(k, self.contacts.j[rows], len(self.boundary)).reshape(-1)
+        return comm.exact_sum_groups(k, self.body_of[self.contacts.j[rows]], self.n_bodies).reshape(-1)
 
 
 def make_kinds(law, walls, facets, boxes):
@@ -195,6 +199,14 @@ def make_kinds(law, walls, facets, boxes):
         kinds.append(BoundaryContacts(SphereWall, law, walls, neighbors.build_wall_candidates))
     if len(facets):
         kinds.append(BoundaryContacts(SphereFacet, law, facets, neighbors.build_facet_candidates))
-    if len(boxes):
+    if boxes.smooth_count():
         kinds.append(BoundaryContacts(SphereBox, law, boxes, neighbors.build_box_candidates))
+    if len(boxes.members):
+        kinds.append(BoundaryContacts(SphereMember, law, boxes.members, neighbors.build_member_candidates,
+                                      body_of=boxes.members.box, n_bodies=len(boxes)))
     return kinds
+
+
+def box_kinds(sim):
+    """The contact kinds whose forces act on the rigid boxes (flat faces, member spheres)."""
+    return [k for k in (sim.kind("sphere_box"), sim.kind("sphere_member")) if k is not None]

@@ -62,7 +62,7 @@ def pair_forces(n, pi, pj, state, params, history, force, torque, overlap, slot,
         drop = status == OPEN and not LAW_TENSILE  # noqa: F821  (Law2 deletes an opened contact)
         if not drop:
             if fresh:
-                ma, mb, ra, rb, m1, m2 = GEOM_IP2_ARGS(i, j, radius, material, mass, other_i)  # noqa: F821
+                ma, mb, ra, rb, m1, m2 = GEOM_IP2_ARGS(i, j, radius, material, mass, other_f, other_i)  # noqa: F821
                 LAW_IP2(props, ma, mb, ra, rb, m1, m2, params, p)  # noqa: F821
                 params[p, LAW_N_PARAMS] = step  # noqa: F821
                 state[p] = 1

@@ -18,6 +18,8 @@ Settlement [m] is the displacement of the box centre along the load direction si
 reference position (positive = moving with the load, e.g. down for a sleeper); force [N] is the
 ballast reaction along −direction (positive when the ballast pushes back). Imports only numpy.
 """
+from math import isnan
+
 import numpy as np
 
 FIELDS = ("cycle", "t_start", "settlement_start", "settlement_peak", "settlement_end", "force_max", "force_min",
@@ -53,7 +55,7 @@ class CycleRecorder:
             return False
         t0, tp, t1 = self._times(self._k)
         rec = self._open
-        return tp <= t < t1 and (rec is None or np.isnan(rec["settlement_peak"]))
+        return tp <= t < t1 and (rec is None or isnan(rec["settlement_peak"]))
 
     def sample(self, t, settlement, force, load=np.nan, split=None):
         """Add one sample; returns the record of a cycle this sample completed, else None.
@@ -67,18 +69,18 @@ class CycleRecorder:
             self._open = rec
             if t >= t1:  # this sample closes the cycle (and may open the next)
                 rec["settlement_end"] = settlement
-                if np.isnan(rec["settlement_start"]):
+                if isnan(rec["settlement_start"]):
                     rec["settlement_start"] = settlement
-                if np.isnan(rec["settlement_peak"]):
+                if isnan(rec["settlement_peak"]):
                     rec["settlement_peak"] = settlement
                 self.records.append(rec)
                 done = rec
                 self._open = None
                 self._k += 1
                 continue
-            if np.isnan(rec["settlement_start"]):
+            if isnan(rec["settlement_start"]):
                 rec["settlement_start"] = settlement
-            if t >= tp and np.isnan(rec["settlement_peak"]):
+            if t >= tp and isnan(rec["settlement_peak"]):
                 rec["settlement_peak"] = settlement
                 for name, value in (split or {}).items():
                     rec[f"{name}_peak"] = float(value)
@@ -87,7 +89,7 @@ class CycleRecorder:
             rec["force_max"] = max(rec["force_max"], force)
             rec["settlement_max"] = max(rec["settlement_max"], settlement)
             rec["force_min"] = min(rec["force_min"], force)
-            if not np.isnan(load):
+            if not isnan(load):
                 rec["load_max"] = max(rec["load_max"], load)
                 rec["load_min"] = min(rec["load_min"], load)
             rec["n_samples"] += 1

@@ -11,6 +11,7 @@ the rank count (exact sums, max/min reductions).
 """
 import numpy as np
 
+from ..contact.kinds import box_kinds
 from ..diagnostics import max_overlap_ratio as _max_overlap_ratio
 from ..state import DOF_ALL
 
@@ -67,19 +68,19 @@ def box_forces(sim):
 def box_face_forces(sim, box=0):
     """(bottom, sides) [N, 3 each]: the force of the spheres on box ``box`` split by where they
     touch it: ``bottom`` from the spheres whose centre is below the box's bottom plane (its bottom
-    face and bottom edges), ``sides`` from all others (its vertical faces: for a sleeper pushed
-    down, their z part is the side friction). Exact sums over all ranks (collective); their sum
-    is `box_forces` up to the rounding of one addition."""
-    kind = sim.kind("sphere_box")
-    if kind is None:
-        return np.zeros(3), np.zeros(3)
-    c, p = kind.contacts, sim.particles
-    rows = c.real_rows()
-    rows = rows[c.j[rows] == box]
+    face and bottom edges, or its bottom members), ``sides`` from all others (its vertical faces:
+    for a sleeper pushed down, their z part is the side friction). Exact sums over all ranks
+    (collective); their sum is `box_forces` up to the rounding of one addition."""
+    out = np.zeros((2, 3)) if not box_kinds(sim) else None
     bottom = sim.boxes.center[box, 2] - sim.boxes.half[box, 2]
-    side = (p.pos[c.i[rows], 2] >= bottom).astype(np.int64)
-    sums = sim.comm.exact_sum_groups(-c.force[rows], side, 2)
-    return sums[0], sums[1]
+    for kind in box_kinds(sim):
+        c, p = kind.contacts, sim.particles
+        rows = c.real_rows()
+        rows = rows[kind.body_of[c.j[rows]] == box]
+        side = (p.pos[c.i[rows], 2] >= bottom).astype(np.int64)
+        sums = sim.comm.exact_sum_groups(-c.force[rows], side, 2)
+        out = sums if out is None else out + sums
+    return out[0], out[1]
 
 
 def box_positions(sim):

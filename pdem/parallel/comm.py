@@ -162,6 +162,9 @@ class SerialComm:
         v, g, k = _groups_args(values, group, n_groups)
         return exactsum.acc_values(exactsum.exact_sum_groups_acc(v, g, n_groups)).reshape(n_groups, k)
 
+    def exact_sum_accumulators(self, accs):
+        return exactsum.acc_values(accs)
+
     def gather_rows(self, array, root=0):
         a, _ = _rows_array(array)
         return a.copy()
@@ -278,6 +281,13 @@ class MpiComm:
         total = np.empty_like(accs)
         self.comm.Allreduce(accs, total, op=self._MPI.SUM)
         return exactsum.acc_values(total).reshape(n_groups, k)
+
+    def exact_sum_accumulators(self, accs):
+        """The correctly rounded values of the sums over all ranks of exact accumulators
+        (`pdem.exactsum`, int64[k, NLIMBS], normalised, the same k everywhere): ``[k]``."""
+        total = np.empty_like(accs)
+        self.comm.Allreduce(accs, total, op=self._MPI.SUM)
+        return exactsum.acc_values(total)
 
     # ---- gathers
     def _row_layout(self, array):

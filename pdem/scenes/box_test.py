@@ -26,7 +26,9 @@ Options for what the thesis leaves open (``CHOICES``; docs/box_test.md "Options"
 ("top" | "center"), ``sleeper_placement`` ("cut" | "on_top", `sleeper_on_top`), ``refill``
 ("beside" | "whole"), ``waveform`` ("haversine" | "half_sine"), ``base`` ("one_sided" |
 "two_sided": a catch floor `catch_depth` below holds the spheres that pass, counted by
-`base_passed`), and the pipeline's ``vibration_friction_contacts`` ("all" | "new", Yade).
+`base_passed`), ``sleeper_surface`` ("flat" | "spheres": the thesis's clump of 2280 spheres,
+`sleeper_members`, with ``sleeper_mass`` = "members" for Yade's 9.37 kg), and the pipeline's
+``vibration_friction_contacts`` ("all" | "new", Yade).
 Records besides the settlement: the ballast force on the sleeper's bottom face and on its sides
 (`face_forces`), per cycle the settlement at the largest force and the largest settlement.
 
@@ -76,7 +78,7 @@ DEFAULTS = {
     "cut_height": 0.30,                 # first fill cut = sleeper bottom [m]
     "height": 0.45,                     # final ballast height [m]
     "sleeper_size": [0.25, 0.3, 0.15],  # [m]
-    "sleeper_mass": 34.0,               # [kg]
+    "sleeper_mass": 34.0,               # [kg], or "members": the member spheres' mass (Yade's clump: 9.37 kg)
     "f_min": 3000.0, "f_max": 40000.0, "frequency": 1.0, "cycles": 10,
     # options for what the thesis leaves open or pdem chose differently (docs/box_test.md, "Options")
     "cut": "top",                 # "top": cut the spheres whose top is above a cut; "center": whose centre is (Yade)
@@ -85,12 +87,15 @@ DEFAULTS = {
     "refill": "beside",           # "beside": clouds beside the sleeper; "whole": one cloud over the whole box
     "waveform": "haversine",      # "haversine" or "half_sine" (pdem.loads)
     "base": "one_sided",          # "one_sided" or "two_sided" (grains may pass through; counted)
+    "sleeper_surface": "flat",    # "flat": a smooth rigid box; "spheres": the thesis's clump of 2280 steel spheres
+    "sleeper_member_radius": 0.005,  # [m] of the "spheres" surface (`sleeper_members`)
     # preparation at reduced stiffness, then a stiffening stage (law "linear"; docs/box_test.md "Full stiffness")
     "prep_stiffness_factor": 1.0,  # pour .. settle with every material's young times this [-]; 1: no stiffen stage
     "stiffen_time": 0.2,           # the stiffness grows geometrically to the materials' over this time [s]
 }
 CHOICES = {"cut": ("top", "center"), "sleeper_placement": ("cut", "on_top"), "refill": ("beside", "whole"),
-           "waveform": ("haversine", "half_sine"), "base": ("one_sided", "two_sided")}
+           "waveform": ("haversine", "half_sine"), "base": ("one_sided", "two_sided"),
+           "sleeper_surface": ("flat", "spheres")}
 WAVEFORMS = {"haversine": Haversine, "half_sine": HalfSine}
 WHERE = ("box_test", "beside the sleeper")
 
@@ -124,8 +129,9 @@ def box_settings(doc):
     if c["prep_stiffness_factor"] != 1.0 and doc.get("simulation", {}).get("law", "linear") != "linear":
         raise InputError(f"box_test.prep_stiffness_factor = {c['prep_stiffness_factor']!r}: the stiffening stage "
                          "needs simulation.law = 'linear' (its stiffness is proportional to young); use 1.0")
-    for k in ("cut_height", "height", "sleeper_mass", "frequency", "stiffen_time"):
+    for k in ("cut_height", "height", "frequency", "stiffen_time", "sleeper_member_radius"):
         c[k] = number(f"box_test.{k}", c[k], 0.0, lo_open=True)
+    c["sleeper_mass"] = sleeper_mass(doc, c)
     for k in ("f_min", "f_max"):
         c[k] = number(f"box_test.{k}", c[k], 0.0)
     c["cycles"] = number("box_test.cycles", c["cycles"], 1, integer=True)
@@ -161,6 +167,20 @@ def grain_settings(c):
             "discretization": g.get("discretization", 0), "samples": g.get("samples", 0)}
 
 
+def sleeper_mass(doc, c):
+    """The sleeper's mass [kg]: ``sleeper_mass``, or with "members" (``sleeper_surface`` = "spheres")
+    the mass of its member spheres of the sleeper material's density, as Yade sums a clump's."""
+    m = c["sleeper_mass"]
+    if m == "members":
+        if c["sleeper_surface"] != "spheres":
+            raise InputError("box_test.sleeper_mass = 'members': needs sleeper_surface = 'spheres' (a flat sleeper "
+                             "has no members); give a mass in kg")
+        r = c["sleeper_member_radius"]
+        n = len(sleeper_members(c["sleeper_size"], r))
+        return n * 4.0 / 3.0 * np.pi * r ** 3 * float(doc["materials"][c["sleeper_material"]]["density"])
+    return number("box_test.sleeper_mass", m, 0.0, lo_open=True, allow="a number > 0 [kg] or 'members'")
+
+
 # ---------------------------------------------------------------------------- geometry
 def sleeper_geometry(c, bottom):
     """(center, half_extents) of the sleeper with its bottom at ``bottom`` [m]."""
@@ -175,8 +195,8 @@ def sleeper_members(size, r=0.005):
     spheres touching on a lattice of spacing 2r, forming a rectangular tube along y (the box's
     width, whose walls close its ends): top and bottom plates of nx × ny spheres and two side
     walls of ny × (nz − 2), n = size / 2r. For 250 × 300 × 150 mm: 2·25·30 + 2·30·13 = 2280
-    spheres, 9.37 kg of steel as Yade sums its members (7850 kg/m³). Geometry only: the box test
-    does not run a clump sleeper yet (docs/box_test.md)."""
+    spheres, 9.37 kg of steel as Yade sums its members (7850 kg/m³). The sleeper of
+    ``sleeper_surface`` = "spheres" (`pdem.boxes.BoxMembers`)."""
     n = [int(round(s / (2 * r))) for s in size]
     axes = [(np.arange(k) - (k - 1) / 2.0) * 2 * r for k in n]
     x, y, z = np.meshgrid(*axes, indexing="ij")
@@ -240,8 +260,11 @@ def stage_scene(doc, c, stage, tables, load_start=None, sleeper_center=None):
             center = np.asarray(sleeper_center, float)
         load = (WAVEFORMS[c["waveform"]](c["f_min"], c["f_max"], c["frequency"], c["cycles"], start=load_start,
                                          label="box_test") if stage == "load" else None)
+        members = (sleeper_members(c["sleeper_size"], c["sleeper_member_radius"])
+                   if c["sleeper_surface"] == "spheres" else None)
         scene.add_box(center, half, c["sleeper_material"], c["sleeper_mass"], blocked="xyXYZ", load=load,
-                      damping=scene.settings["damping"], name="sleeper")
+                      damping=scene.settings["damping"], name="sleeper", members=members,
+                      member_radius=c["sleeper_member_radius"])
     scene.add_sphere_columns(tables["particles"])
     if "clumps" in tables:
         scene.add_clump_tables(tables["clumps"], tables["clump_members"])
@@ -371,8 +394,11 @@ class BoxTestRun(PreparedRun):
                                    c["seed"] + 1000 + k, gid, WHERE)
                 gid = int(tables["particles"]["gid"].max()) + 1
             where = "beside it"
-        return tables, (f"removed {removed} spheres above {h1} m, placed the sleeper (bottom {bottom:.4f} m), poured "
-                        f"{len(tables['particles']['gid']) - n0} spheres {where}")
+        surface = ("" if c["sleeper_surface"] == "flat" else
+                   f", {len(sleeper_members(c['sleeper_size'], c['sleeper_member_radius']))} member spheres")
+        return tables, (f"removed {removed} spheres above {h1} m, placed the sleeper (bottom {bottom:.4f} m, "
+                        f"{c['sleeper_mass']:.4g} kg{surface}), poured {len(tables['particles']['gid']) - n0} spheres "
+                        f"{where}")
 
     def trim(self, tables):
         h2 = self.c["height"]

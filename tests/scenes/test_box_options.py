@@ -13,7 +13,9 @@ Option sets (each a few seconds per run):
   before loading: after the stiffen stage every contact's k_n and k_s are the ones Ip2 gives at
   the full stiffness (within rounding), and a resume in the middle of it gives the same bits;
 - ``clumps``: ballast of rigid 8-sphere clumps (member r = 6 mm) on a stiffer base: every cut
-  removes whole clumps.
+  removes whole clumps;
+- ``clump_sleeper``: the sleeper as the thesis's clump of steel spheres (r = 5 mm: 240 here) with
+  the mass Yade sums from them.
 """
 import shutil
 
@@ -72,6 +74,9 @@ base = "two_sided"
     "stiffen": """prep_stiffness_factor = 0.1
 stiffen_time = 0.05
 """,
+    "clump_sleeper": """sleeper_surface = "spheres"
+sleeper_member_radius = 0.005
+""",
     "clumps": """
 [box_test.clumps]
 shape = "ballast8"
@@ -95,6 +100,8 @@ def scene_text(name):
         for soft, stiff in (("2.8e7", "2.8e8"), ("2.8e6", "2.8e7"), ("2.8e5", "2.8e6")):  # steel, ballast, rubber
             text = text.replace(f"young = {soft}", f"young = {stiff}")
         text = text.replace("checkpoint_keep = 0", "checkpoint_keep = 0\ncheckpoint_every = 200")
+    if name == "clump_sleeper":  # the mass Yade sums from the members
+        text = text.replace("sleeper_mass = 2.0", 'sleeper_mass = "members"')
     if name == "clumps":  # small members sink into the soft base under the load: a 10 times stiffer base
         text = text.replace("young = 2.8e5", "young = 2.8e6")
     return text
@@ -181,7 +188,7 @@ def bottom_of(stdout):
 
 
 @needs_mpiexec
-@pytest.mark.parametrize("name", ["yade", "overlap", "stiffen", "clumps"])
+@pytest.mark.parametrize("name", ["yade", "overlap", "stiffen", "clumps", "clump_sleeper"])
 def test_same_bits_on_2_ranks(runs, tmp_path, name):
     d, _, scene = runs[name]
     run_pdem(2, scene, tmp_path / "r2")
@@ -238,3 +245,16 @@ def test_resume_in_the_middle_of_a_stage_on_3_ranks(runs, tmp_path, name, stage,
     r = run_pdem(3, scene, res)
     assert f"at step {mid} (stage {stage}" in r.stdout and f"stage {stage} (resumed)" in r.stdout
     assert_same(d, res)
+
+
+def test_clump_sleeper_stands_on_its_member_spheres(runs):
+    """The sleeper of 240 member spheres (2·8·10 + 2·10·4) weighs what Yade sums from them and
+    touches the ballast only through them; it settles under the load like the flat one."""
+    d, out, _ = runs["clump_sleeper"]
+    tables = read_checkpoint(list_checkpoints(d / "checkpoints")[-1][1])[0]
+    assert "contacts/sphere_box" not in tables
+    assert len(tables["contacts/sphere_member"]["key"]) > 0  # (unloaded at the end: a few)
+    mass = 240 * 4.0 / 3.0 * np.pi * 0.005 ** 3 * 7850.0
+    assert f"{mass:.4g} kg, 240 member spheres" in out
+    c = cycles(d)
+    assert np.all(c["force_bottom_peak"] > 0.5 * 50.0) and c["settlement_max"][-1] > 0.0
