@@ -101,17 +101,21 @@ def _flat_contact_velocity(s, nx, ny, nz, pen, vel, angvel, radius, bvx, bvy, bv
 
 # ---------------------------------------------------------------------------- sphere–sphere
 @njit(inline="always", cache=True)
-def _ss_contact(fresh, i, j, pos, radius, other_f, other_i):
-    dx = pos[j, 0] - pos[i, 0]
-    dy = pos[j, 1] - pos[i, 1]
-    dz = pos[j, 2] - pos[i, 2]
+def _two_spheres(fresh, dx, dy, dz, rs):
+    """Ig2_Sphere_Sphere_ScGeom from the centre distance (dx, dy, dz) of body 2 from body 1 and
+    the sum of their radii rs."""
     d2 = dot3(dx, dy, dz, dx, dy, dz)
-    rs = radius[i] + radius[j]
     if fresh and rs * rs - d2 < 0.0:
         return SKIP, 0.0, 0.0, 0.0, 0.0
     dist = sqrt(d2)
     pen = rs - dist
     return OPEN if pen < 0.0 else CONTACT, dx / dist, dy / dist, dz / dist, pen
+
+
+@njit(inline="always", cache=True)
+def _ss_contact(fresh, i, j, pos, radius, other_f, other_i):
+    return _two_spheres(fresh, pos[j, 0] - pos[i, 0], pos[j, 1] - pos[i, 1], pos[j, 2] - pos[i, 2],
+                        radius[i] + radius[j])
 
 
 @njit(inline="always", cache=True)
@@ -422,16 +426,8 @@ class SphereBox:
 @njit(inline="always", cache=True)
 def _member_contact(fresh, s, m, pos, radius, other_f, other_i):
     """Ig2_Sphere_Sphere_ScGeom with the member (row m of `pdem.boxes.BoxMembers`) as body 1."""
-    dx = pos[s, 0] - other_f[m, 0]
-    dy = pos[s, 1] - other_f[m, 1]
-    dz = pos[s, 2] - other_f[m, 2]
-    d2 = dot3(dx, dy, dz, dx, dy, dz)
-    rs = other_f[m, 6] + radius[s]
-    if fresh and rs * rs - d2 < 0.0:
-        return SKIP, 0.0, 0.0, 0.0, 0.0
-    dist = sqrt(d2)
-    pen = rs - dist
-    return OPEN if pen < 0.0 else CONTACT, dx / dist, dy / dist, dz / dist, pen
+    return _two_spheres(fresh, pos[s, 0] - other_f[m, 0], pos[s, 1] - other_f[m, 1], pos[s, 2] - other_f[m, 2],
+                        other_f[m, 6] + radius[s])
 
 
 @njit(inline="always", cache=True)

@@ -14,7 +14,7 @@ def members(name, tmp_path):
 
 def test_calibration_crosses_the_compaction_options_with_ten_seeds(tmp_path):
     got = members("box_calibration", tmp_path)
-    assert len(got) == 60
+    assert len(got) == 80
     seeds = sorted({d["box_test"]["seed"] for d in got.values()})
     assert seeds == list(range(1, 11))
     for d in got.values():  # thesis (b)
@@ -24,6 +24,9 @@ def test_calibration_crosses_the_compaction_options_with_ten_seeds(tmp_path):
     assert (yade["cut"], yade["sleeper_placement"], yade["base"], yade["vibration_friction_contacts"]) == (
         "center", "cut", "two_sided", "new")
     assert next(d for n, d in got.items() if n.startswith("unvibrated"))["box_test"]["vibration_time"] == 0.0
+    sleeper = next(d for n, d in got.items() if n.startswith("yade-sleeper_"))["box_test"]
+    assert (sleeper["sleeper_surface"], sleeper["sleeper_mass"], sleeper["vibration_friction_contacts"]) == (
+        "spheres", "members", "new")
 
 
 @pytest.mark.parametrize("name, key, values", [
