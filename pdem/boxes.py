@@ -124,10 +124,10 @@ class Boxes:
 
     def add(self, center, half_extents, material, mass, *, blocked=None, fixed=False, load=None,
             direction=(0.0, 0.0, -1.0), velocity=(0.0, 0.0, 0.0), damping=0.0, name="", members=None,
-            member_radius=None, member_material=None):
+            member_radius=None):
         """Validate and append one box; returns its index. ``members`` [k, 3] (centres relative to
-        the box centre [m]) with ``member_radius`` [m] give it a surface of spheres instead of flat
-        faces (``member_material`` defaults to the box's)."""
+        the box centre [m]) with ``member_radius`` [m] give it a surface of spheres of its material
+        instead of flat faces."""
         label = f"boxes.{name}" if name else f"boxes[{len(self)}]"
         c = vector3(f"{label}.center", center)
         h = vector3(f"{label}.half_extents", half_extents)
@@ -157,8 +157,7 @@ class Boxes:
         self.contact_force = np.zeros((len(self), 3))
         self.load_force = np.zeros((len(self), 3))
         if members is not None:
-            self.members.add(label, len(self) - 1, members, member_radius,
-                             material if member_material is None else member_material, h)
+            self.members.add(label, len(self) - 1, members, member_radius, material, h)
             self.place_members()
         return len(self) - 1
 

@@ -84,6 +84,7 @@ class Simulation:
         self.energy_reference = None
         self.last_dt = None  # Δt of the last step taken (sim.dt may already be the next one's) [s]
         self.kinds = make_kinds(law, walls, facets, boxes)
+        self.box_kinds = box_kinds(self.kinds)  # the kinds whose forces act on the boxes
         # rigid clumps owned here (pdem.clumps), None in a scene without clumps
         self.clumps = clumps
         if clumps is not None:
@@ -155,7 +156,7 @@ class Simulation:
         """[n_boxes, 3] force of the spheres on each rigid box [N] (collective, the same bits on every
         rank): on its flat faces or on its member spheres (a box has one or the other)."""
         total = None
-        for kind in box_kinds(self):
+        for kind in self.box_kinds:
             t = kind.totals(self.comm)
             total = t if total is None else total + t
         return total

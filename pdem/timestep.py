@@ -27,7 +27,6 @@ import numpy as np
 from numba import njit
 
 from .clumps import add_member_stiffness
-from .contact.kinds import box_kinds
 from .state import DOF_ALL
 
 
@@ -132,7 +131,7 @@ def stable_dt(sim):
     run with one blows up (`pdem.diagnostics.dt_text`)."""
     p = sim.particles
     k_dt = contact_dt(sim)
-    for kind in box_kinds(sim):  # the box's own mass–spring step, from the global sum of its contacts
+    for kind in sim.box_kinds:  # the box's own mass–spring step, from the global sum of its contacts
         k_dt = min(k_dt, box_dt(sim.boxes.mass, sim.boxes.blocked, kind.stiffness_totals(sim.comm)))
     k_dt = sim.comm.allreduce_min(k_dt)
     nl = p.n_local

@@ -207,6 +207,6 @@ def make_kinds(law, walls, facets, boxes):
     return kinds
 
 
-def box_kinds(sim):
-    """The contact kinds whose forces act on the rigid boxes (flat faces, member spheres)."""
-    return [k for k in (sim.kind("sphere_box"), sim.kind("sphere_member")) if k is not None]
+def box_kinds(kinds):
+    """The kinds among ``kinds`` whose forces act on the rigid boxes (flat faces, member spheres)."""
+    return [k for k in kinds if k.name in ("sphere_box", "sphere_member")]

@@ -11,7 +11,6 @@ the rank count (exact sums, max/min reductions).
 """
 import numpy as np
 
-from ..contact.kinds import box_kinds
 from ..diagnostics import max_overlap_ratio as _max_overlap_ratio
 from ..state import DOF_ALL
 
@@ -71,9 +70,9 @@ def box_face_forces(sim, box=0):
     face and bottom edges, or its bottom members), ``sides`` from all others (its vertical faces:
     for a sleeper pushed down, their z part is the side friction). Exact sums over all ranks
     (collective); their sum is `box_forces` up to the rounding of one addition."""
-    out = np.zeros((2, 3)) if not box_kinds(sim) else None
+    out = np.zeros((2, 3)) if not sim.box_kinds else None
     bottom = sim.boxes.center[box, 2] - sim.boxes.half[box, 2]
-    for kind in box_kinds(sim):
+    for kind in sim.box_kinds:
         c, p = kind.contacts, sim.particles
         rows = c.real_rows()
         rows = rows[kind.body_of[c.j[rows]] == box]

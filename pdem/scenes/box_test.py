@@ -131,6 +131,8 @@ def box_settings(doc):
                          "needs simulation.law = 'linear' (its stiffness is proportional to young); use 1.0")
     for k in ("cut_height", "height", "frequency", "stiffen_time", "sleeper_member_radius"):
         c[k] = number(f"box_test.{k}", c[k], 0.0, lo_open=True)
+    c["sleeper_members"] = (sleeper_members(c["sleeper_size"], c["sleeper_member_radius"])
+                            if c["sleeper_surface"] == "spheres" else None)
     c["sleeper_mass"] = sleeper_mass(doc, c)
     for k in ("f_min", "f_max"):
         c[k] = number(f"box_test.{k}", c[k], 0.0)
@@ -176,8 +178,8 @@ def sleeper_mass(doc, c):
             raise InputError("box_test.sleeper_mass = 'members': needs sleeper_surface = 'spheres' (a flat sleeper "
                              "has no members); give a mass in kg")
         r = c["sleeper_member_radius"]
-        n = len(sleeper_members(c["sleeper_size"], r))
-        return n * 4.0 / 3.0 * np.pi * r ** 3 * float(doc["materials"][c["sleeper_material"]]["density"])
+        density = float(doc["materials"][c["sleeper_material"]]["density"])
+        return len(c["sleeper_members"]) * 4.0 / 3.0 * np.pi * r ** 3 * density
     return number("box_test.sleeper_mass", m, 0.0, lo_open=True, allow="a number > 0 [kg] or 'members'")
 
 
@@ -260,10 +262,8 @@ def stage_scene(doc, c, stage, tables, load_start=None, sleeper_center=None):
             center = np.asarray(sleeper_center, float)
         load = (WAVEFORMS[c["waveform"]](c["f_min"], c["f_max"], c["frequency"], c["cycles"], start=load_start,
                                          label="box_test") if stage == "load" else None)
-        members = (sleeper_members(c["sleeper_size"], c["sleeper_member_radius"])
-                   if c["sleeper_surface"] == "spheres" else None)
         scene.add_box(center, half, c["sleeper_material"], c["sleeper_mass"], blocked="xyXYZ", load=load,
-                      damping=scene.settings["damping"], name="sleeper", members=members,
+                      damping=scene.settings["damping"], name="sleeper", members=c["sleeper_members"],
                       member_radius=c["sleeper_member_radius"])
     scene.add_sphere_columns(tables["particles"])
     if "clumps" in tables:
@@ -394,8 +394,7 @@ class BoxTestRun(PreparedRun):
                                    c["seed"] + 1000 + k, gid, WHERE)
                 gid = int(tables["particles"]["gid"].max()) + 1
             where = "beside it"
-        surface = ("" if c["sleeper_surface"] == "flat" else
-                   f", {len(sleeper_members(c['sleeper_size'], c['sleeper_member_radius']))} member spheres")
+        surface = "" if c["sleeper_members"] is None else f", {len(c['sleeper_members'])} member spheres"
         return tables, (f"removed {removed} spheres above {h1} m, placed the sleeper (bottom {bottom:.4f} m, "
                         f"{c['sleeper_mass']:.4g} kg{surface}), poured {len(tables['particles']['gid']) - n0} spheres "
                         f"{where}")
