@@ -1,7 +1,8 @@
 """Command line: ``python -m analysis box RESULTS.h5 [--out DIR]``; also ``grading``, ``blast``,
 ``track``, ``oedometer`` (each defined by its module's ``add_parser``), ``campaign DIR`` (`analysis.campaign`),
-``error-vs-runtime DIR`` (`analysis.error_vs_runtime`) and ``stability DIR [DIR ...]``
-(`analysis.stability`: exit status 1 when the stability map fails or is not finished).
+``error-vs-runtime DIR`` (`analysis.error_vs_runtime`), ``stability DIR [DIR ...]``
+(`analysis.stability`: exit status 1 when the stability map fails or is not finished) and
+``box-checks CALIBRATION_DIR CHECKS_DIR`` (`analysis.box_checks`).
 
 This module owns the CLI only: argument parsing, the output directory and exit status. Bad
 input (not a pdem result, no complete cycle, unwritable output) exits with status 2 and one
@@ -51,9 +52,10 @@ def build_parser() -> argparse.ArgumentParser:
                                        "stiffness (default: %(default)s)")
     for module in (grading, blast, track, oedometer):
         module.add_parser(sub)
-    from . import campaign, error_vs_runtime, stability
+    from . import box_checks, campaign, error_vs_runtime, stability
 
     campaign.add_parser(sub)
+    box_checks.add_parser(sub)
     error_vs_runtime.add_parser(sub)
     stability.add_parser(sub)
     return parser
@@ -84,7 +86,7 @@ def main(argv=None) -> int:
     if args.command is None:
         parser.print_help(sys.stderr)
         return EXIT_BAD_INPUT
-    if args.command in ("campaign", "error-vs-runtime", "stability"):
+    if args.command in ("campaign", "error-vs-runtime", "stability", "box-checks"):
         return _run_campaign(args)
     try:
         if hasattr(args, "run"):
@@ -102,15 +104,17 @@ def main(argv=None) -> int:
 
 
 def _run_campaign(args) -> int:
-    from . import campaign, error_vs_runtime, stability
+    from . import box_checks, campaign, error_vs_runtime, stability
 
-    module = {"campaign": campaign, "error-vs-runtime": error_vs_runtime, "stability": stability}[args.command]
+    module = {"campaign": campaign, "error-vs-runtime": error_vs_runtime, "stability": stability,
+              "box-checks": box_checks}[args.command]
     try:
         written = module.run(args)
     except (campaign.CampaignError, ResultFileError) as err:
         return _fail(str(err))
     except (ValueError, OSError) as err:
-        where = " ".join(map(str, args.dirs)) if hasattr(args, "dirs") else args.dir
+        where = (" ".join(map(str, args.dirs)) if hasattr(args, "dirs") else
+                 f"{args.calibration} {args.checks}" if hasattr(args, "checks") else args.dir)
         return _fail(f"{where}: {_one_line(err)}")
     status = 0
     if args.command == "stability":  # (files, passed): the map's verdict is the exit status

@@ -2,7 +2,8 @@
 
 - `energy`: mechanical energy [J] of the owned free bodies (rigid clumps as one body each) and
   the contacts (kinetic, rotational, gravitational potential −m g·x, elastic from the law, and
-  their total synchronised to the positions), as exact global sums.
+  their total synchronised to the positions), as exact global sums; `kinetic_energy` its kinetic
+  and rotational part alone (for records written often).
 - `contacts_per_particle`, `max_overlap_ratio`: real contacts per body; the largest overlap over
   the smaller radius of the pair [-].
 - `check_stability`: stop with `InstabilityError` naming the cause if the state is not finite,
@@ -44,16 +45,8 @@ def energy(sim):
     (h unknown) the state is taken as it is, without correction."""
     p = sim.particles
     nl = p.n_local
-    free = p.blocked[:nl] != DOF_ALL
-    if sim.clumps is not None:  # a rigid clump counts as one body, not as its members
-        free &= sim.clumps.row_clump[:nl] < 0
-    m = p.mass[:nl][free]
-    v = p.vel[:nl][free]
-    w = p.angvel[:nl][free]
-    inertia = p.inertia[:nl][free]
+    free, m, v, w, inertia, ke, kr = _kinetic_terms(sim)
     h = sim.last_dt or 0.0
-    ke = 0.5 * m * np.einsum("ij,ij->i", v, v)
-    kr = 0.5 * inertia * np.einsum("ij,ij->i", w, w)
     # potential energy at the positions the overlaps were computed from (start of the step)
     x_start = p.pos[:nl][free] - v * h
     pe = -m * (x_start @ sim.gravity)
@@ -76,6 +69,31 @@ def energy(sim):
     out = {"kinetic": s(ke), "rotational": s(kr), "potential": s(pe), "elastic": s(el)}
     out["total"] = s(np.concatenate([ke, kr, pe, el, sync]))
     return out
+
+
+def kinetic_energy(sim):
+    """Kinetic plus rotational energy [J] of the velocities after the step: ``energy(sim)``'s
+    ``kinetic + rotational`` (the same bits) without its other terms (collective)."""
+    _, _, _, _, _, ke, kr = _kinetic_terms(sim)
+    if sim.clumps is not None:
+        cke, ckr, _ = sim.clumps.energy(sim.gravity, sim.last_dt or 0.0)
+        ke, kr = np.concatenate([ke, cke]), np.concatenate([kr, ckr])
+    return sim.comm.exact_sum(ke) + sim.comm.exact_sum(kr)
+
+
+def _kinetic_terms(sim):
+    """(free, m, v, ω, I, ½ m v², ½ I ω²) of this rank's free bodies (a clump's members excluded)."""
+    p = sim.particles
+    nl = p.n_local
+    free = p.blocked[:nl] != DOF_ALL
+    if sim.clumps is not None:  # a rigid clump counts as one body, not as its members
+        free &= sim.clumps.row_clump[:nl] < 0
+    m = p.mass[:nl][free]
+    v = p.vel[:nl][free]
+    w = p.angvel[:nl][free]
+    inertia = p.inertia[:nl][free]
+    return (free, m, v, w, inertia, 0.5 * m * np.einsum("ij,ij->i", v, v),
+            0.5 * inertia * np.einsum("ij,ij->i", w, w))
 
 
 def _step_acceleration(a, v, blocked, shift, damping, h):

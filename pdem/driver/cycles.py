@@ -36,8 +36,10 @@ class CycleRecorder:
         self.cycles = int(program.cycles)
         self.records = []
         self._k = 0
+        self._bounds = self._times(0)  # (start, peak, end) instants of cycle _k
         self._open = None
         self.reference = None  # box centre the settlement is measured from (sample_box)
+        self._axes = {}  # box -> (component, sign) of an axis-aligned load direction, or None
 
     def _times(self, k):
         t0 = self.start + k / self.frequency
@@ -53,16 +55,20 @@ class CycleRecorder:
         after its peak instant): the moment to pass ``split`` to `sample`."""
         if self._k >= self.cycles:
             return False
-        t0, tp, t1 = self._times(self._k)
+        t0, tp, t1 = self._bounds
         rec = self._open
         return tp <= t < t1 and (rec is None or isnan(rec["settlement_peak"]))
 
     def sample(self, t, settlement, force, load=np.nan, split=None):
         """Add one sample; returns the record of a cycle this sample completed, else None.
         ``split``: extra values of the peak sample (see the module docstring)."""
+        rec = self._open
+        if rec is not None and t < self._bounds[2] and (t < self._bounds[1] or not isnan(rec["settlement_peak"])):
+            _accumulate(rec, settlement, force, load)  # inside the open cycle, not at its peak or end
+            return None
         done = None
         while self._k < self.cycles:
-            t0, tp, t1 = self._times(self._k)
+            t0, tp, t1 = self._bounds
             if t < t0:
                 return done
             rec = self._open if self._open is not None else self._new(self._k)
@@ -77,6 +83,7 @@ class CycleRecorder:
                 done = rec
                 self._open = None
                 self._k += 1
+                self._bounds = self._times(self._k)
                 continue
             if isnan(rec["settlement_start"]):
                 rec["settlement_start"] = settlement
@@ -84,15 +91,7 @@ class CycleRecorder:
                 rec["settlement_peak"] = settlement
                 for name, value in (split or {}).items():
                     rec[f"{name}_peak"] = float(value)
-            if force > rec["force_max"]:
-                rec["settlement_at_force_max"] = settlement
-            rec["force_max"] = max(rec["force_max"], force)
-            rec["settlement_max"] = max(rec["settlement_max"], settlement)
-            rec["force_min"] = min(rec["force_min"], force)
-            if not isnan(load):
-                rec["load_max"] = max(rec["load_max"], load)
-                rec["load_min"] = min(rec["load_min"], load)
-            rec["n_samples"] += 1
+            _accumulate(rec, settlement, force, load)
             return done
         return done
 
@@ -100,12 +99,21 @@ class CycleRecorder:
         """Sample box `box` of a simulation: settlement from the centre at the first call, force of
         the spheres on the box and applied load, both projected on the load direction."""
         bx = sim.boxes
-        d = bx.direction[box]
         if self.reference is None:
             self.reference = bx.center[box].copy()
-        settlement = float((bx.center[box] - self.reference) @ d)
-        force = float(-(bx.contact_force[box] @ d))
-        load = float(bx.load_force[box] @ d)
+        if box not in self._axes:
+            self._axes[box] = _axis(bx.direction[box])
+        axis = self._axes[box]
+        if axis is None:
+            d = bx.direction[box]
+            settlement = float((bx.center[box] - self.reference) @ d)
+            force = float(-(bx.contact_force[box] @ d))
+            load = float(bx.load_force[box] @ d)
+        else:  # the same values as the dot products above (the other products are zeros), without numpy
+            k, sign = axis
+            settlement = sign * (float(bx.center[box, k]) - float(self.reference[k]))
+            force = -(sign * float(bx.contact_force[box, k]))
+            load = sign * float(bx.load_force[box, k])
         return self.sample(sim.time, settlement, force, load, split)
 
     def table(self):
@@ -121,8 +129,30 @@ class CycleRecorder:
 
     def restore(self, state):
         self._k = int(state["k"])
+        self._bounds = self._times(self._k)
         blank = self._new(0)  # records of a checkpoint written before a field existed get nan
         self._open = None if state["open"] is None else {**blank, "settlement_max": np.nan, **state["open"]}
         self.records = [{**blank, "settlement_max": np.nan, **r} for r in state["records"]]
         self.reference = None if state["reference"] is None else np.asarray(state["reference"], np.float64)
         return self
+
+
+def _accumulate(rec, settlement, force, load):
+    """Add a sample inside the cycle of ``rec`` to its extremes and count."""
+    if force > rec["force_max"]:
+        rec["settlement_at_force_max"] = settlement
+    rec["force_max"] = max(rec["force_max"], force)
+    rec["settlement_max"] = max(rec["settlement_max"], settlement)
+    rec["force_min"] = min(rec["force_min"], force)
+    if not isnan(load):
+        rec["load_max"] = max(rec["load_max"], load)
+        rec["load_min"] = min(rec["load_min"], load)
+    rec["n_samples"] += 1
+
+
+def _axis(direction):
+    """(component, ±1.0) if ``direction`` is a coordinate axis (one component ±1, the others 0), else None."""
+    nz = np.flatnonzero(direction)
+    if len(nz) == 1 and abs(float(direction[nz[0]])) == 1.0:
+        return int(nz[0]), float(direction[nz[0]])
+    return None

@@ -51,6 +51,7 @@ import numpy as np
 from analysis.schema import BOX_TEST_SERIES
 
 from ..config import CLUMP_KEYS, check_keys, grain_shape, run_settings, scene_from_dict
+from ..diagnostics import kinetic_energy
 from ..driver.cycles import CycleRecorder
 from ..driver.preparation import PREPARATION_DEFAULTS, PREPARATION_STAGES, PreparedRun, add_cloud, \
     check_preparation, plot_preparation
@@ -288,7 +289,6 @@ def base_passed(sim):
 
 def load_sample(sim, reference, load=None):
     """A row of the load record; ``reference`` is the sleeper centre where cycling started."""
-    e = sim.energy()
     bx = sim.boxes
     d = bx.direction[0]
     faces = face_forces(sim)
@@ -298,7 +298,7 @@ def load_sample(sim, reference, load=None):
             "sleeper_force_bottom": faces["force_bottom"], "sleeper_force_side": faces["force_side"],
             "base_passed": float(base_passed(sim)),
             "sleeper_settlement": float((bx.center[0] - reference) @ d),
-            "kinetic_energy": e["kinetic"] + e["rotational"], "contacts_per_particle": sim.contacts_per_particle()}
+            "kinetic_energy": kinetic_energy(sim), "contacts_per_particle": sim.contacts_per_particle()}
 
 
 CYCLE_EXTRA = ("settlement_at_force_max", "settlement_max", "force_bottom_peak", "force_side_peak", "base_passed_end")
@@ -353,7 +353,9 @@ class BoxTestRun(PreparedRun):
     def open_results(self):
         restart, comm = self.restart_step, self.comm
         self.results = self.out / "results.h5"
-        self.series = series_writer(self.results, BOX_TEST_SERIES, comm, restart_step=restart)
+        # written every 500 rows, at every checkpoint and at a stop (the loop flushes it): rows after
+        # the last checkpoint are made again by a resumed run
+        self.series = series_writer(self.results, BOX_TEST_SERIES, comm, restart_step=restart, every=500)
         self.loop.flush.append(self.series)
         if comm.rank == 0:
             doc = self.doc

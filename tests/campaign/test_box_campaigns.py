@@ -57,3 +57,30 @@ def test_clump_study_sets_the_8_sphere_grain_on_one_case(tmp_path):
     assert shapes == ["ballast8"] * 3 + ["spheres"] * 3
     for d in got.values():
         assert d["materials"]["ballast"]["young"] == 3.0e6 and d["materials"]["rubber"]["young"] == 3.0e5
+
+
+def test_checks_use_the_calibrated_option_set_on_the_thesis_studies(tmp_path):
+    """box_checks runs the thesis's other studies with the option set of the calibration's case
+    `unvibrated-sleeper` (the nearest mean, docs/box_test.md); `analysis box-checks` verifies the
+    same against the measured calibration."""
+    calib = members("box_calibration", tmp_path)
+    chosen = next(d for n, d in calib.items() if n.startswith("unvibrated-sleeper_"))["box_test"]
+    got = members("box_checks", tmp_path)
+    assert len(got) == 12 * 2
+    cases = {}
+    for name, d in got.items():
+        b = d["box_test"]
+        for k in ("vibration_time", "sleeper_surface", "sleeper_mass"):
+            assert b[k] == chosen[k], (name, k)
+        assert b["radius_spread"] == 0.0 and (b["f_min"], b["f_max"]) == (0.0, 3000.0)
+        m = d["materials"]
+        assert m["steel"]["young"] == pytest.approx(10 * m["ballast"]["young"])
+        assert m["rubber"]["young"] == pytest.approx(0.1 * m["ballast"]["young"])
+        cases[name.rsplit("_seed-", 1)[0]] = d
+    assert cases["ten-cycles"]["box_test"]["cycles"] == 10
+    for e in ("2.8e8", "2.8e9", "2.8e10"):  # prepared at 2.8e7, stiffened before the load
+        d = cases[f"stiffness-{e}"]
+        assert d["materials"]["ballast"]["young"] * d["box_test"]["prep_stiffness_factor"] == pytest.approx(2.8e7)
+    assert [cases[f"frequency-{f}"]["box_test"]["frequency"] for f in ("0.1", "0.01")] == [0.1, 0.01]
+    assert [cases[f"damping-{x}"]["simulation"]["damping"] for x in ("0.2", "0.6", "0.9")] == [0.2, 0.6, 0.9]
+    assert cases["clumps-3e6"]["box_test"]["clumps"]["shape"] == "ballast8"

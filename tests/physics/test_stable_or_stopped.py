@@ -183,6 +183,16 @@ def oscillator(dt_fraction):
     return sim
 
 
+def test_kinetic_energy_alone_is_the_energys_kinetic_and_rotational_bit_for_bit():
+    from pdem.diagnostics import kinetic_energy
+
+    sim = scene_from_dict(deposition_doc()).build()
+    for _ in range(300):
+        sim.advance()
+    e = sim.energy()
+    assert e["kinetic"] > 0.0 and kinetic_energy(sim) == e["kinetic"] + e["rotational"]
+
+
 def test_total_energy_is_the_leapfrogs_shadow_energy():
     """Δt at 60 % of the critical 2 sqrt(m/k): the synchronised total stays constant to rounding
     (1e-6 of the oscillation's energy: the potential energy m g z is 10^5 times larger) every

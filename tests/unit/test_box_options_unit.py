@@ -51,6 +51,27 @@ def test_cycle_recorder_restores_a_checkpoint_written_before_the_new_fields():
     assert np.isnan(tab["settlement_max"]).all() and list(tab["settlement_end"]) == [0.5, 0.9]
 
 
+@pytest.mark.parametrize("direction", [(0.0, 0.0, -1.0), (0.0, 1.0, 0.0), (0.6, 0.0, -0.8)])
+def test_cycle_recorder_reads_a_box_as_the_dot_products_along_its_direction(direction):
+    """sample_box's shortcut for an axis-aligned load direction gives, bit for bit, the values
+    of the dot products it replaces (the general ones for any other direction)."""
+    from types import SimpleNamespace
+
+    rng = np.random.default_rng(7)
+    d = np.array(direction)
+    rec = CycleRecorder(Haversine(0.0, 10.0, 1.0, 3))
+    got = []
+    rec.sample = lambda t, s, f, load, split: got.append((s, f, load))
+    ref = None
+    for t in np.linspace(0.0, 3.0, 50):
+        bx = SimpleNamespace(direction=d[None], center=rng.normal(size=(1, 3)),
+                             contact_force=rng.normal(size=(1, 3)) * 1e4, load_force=rng.normal(size=(1, 3)) * 1e4)
+        ref = bx.center[0].copy() if ref is None else ref
+        rec.sample_box(SimpleNamespace(boxes=bx, time=t))
+        want = (float((bx.center[0] - ref) @ d), float(-(bx.contact_force[0] @ d)), float(bx.load_force[0] @ d))
+        assert got[-1] == want
+
+
 def test_half_sine_peaks_where_the_haversine_does_and_is_steeper_at_the_ends():
     h, s = Haversine(1.0, 11.0, 2.0, 3, start=0.5), HalfSine(1.0, 11.0, 2.0, 3, start=0.5)
     for k in range(3):
