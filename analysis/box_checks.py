@@ -13,7 +13,8 @@ into OUT (default CHECKS_DIR/analysis):
 - ``checks_calibration.png`` (settlement at the peak by option set, the thesis's range),
   ``checks_ten_cycles.png`` (settlement within each of 10 cycles), ``checks_stiffness.png``
   (settlement at the peak against E_k) and ``checks_loops.png`` (force–settlement loops of the
-  damping and frequency studies).
+  damping and frequency studies). A check whose cases have no finished member yet is a "not
+  run yet" row, so a campaign in progress can be looked at.
 
 **The calibration** is the case of the calibration campaign whose mean settlement at the peak of
 its cycle is nearest the thesis's mean. Its option set is the keys that case sets. The checks
@@ -192,16 +193,19 @@ def series_text(values, f, unit, fmt=".3g"):
     return ", ".join(f"{v * f:{fmt}}" for v in values) + (f" {unit}" if unit else "")
 
 
+def not_run(name, cases, options):
+    """The row of a check whose case(s) have no finished member yet."""
+    return Check(name, "", f"not run yet: no finished member of {', '.join(cases)}", "—", 0, options)
+
+
 def build_checks(calib, checks, confidence=0.95):
-    """(rows, context for the plots) of the calibration and the checks."""
+    """(rows, context for the plots) of the calibration and the checks. A check whose cases
+    have no finished member yet is a "not run yet" row (a sweep uses the points it has, at least
+    two), so a campaign in progress can be looked at."""
     best, opts, peak = choose_option_set(calib, confidence)
     verify_option_set(checks, opts)
     cal = by_case(calib)
     case = by_case(checks)
-    need = {c for c, *_ in STIFFNESS_CASES + DAMPING_CASES + FREQUENCY_CASES} | {"spheres-3e6", "clumps-3e6"}
-    missing = sorted(need - set(case))
-    if missing:
-        raise CampaignError(f"{checks.dir}: no finished member of case(s) {', '.join(missing)}")
     label = f"{best} ({describe(opts)})"
     rows = []
 
@@ -217,56 +221,83 @@ def build_checks(calib, checks, confidence=0.95):
                       f"pdem/thesis = {spread / thesis_spread:.3g}", len(a), label, thesis_spread, spread))
 
     # the 10-cycle study (B)
-    w = np.array([within(m) for m in case["ten-cycles"]])
-    rows.append(number_row("B (E_k 2.8e7, 10 cycles): settlement within cycle 1", THESIS_WITHIN[0], w[:, 0], MM, "mm",
-                           label, confidence))
-    rows.append(number_row("B: settlement within cycle 10", THESIS_WITHIN[1], w[:, -1], MM, "mm", label, confidence))
-    rows.append(number_row("B: within cycle 1 / within cycle 10", THESIS_WITHIN[0] / THESIS_WITHIN[1],
-                           w[:, 0] / w[:, -1], 1.0, "", label, confidence))
-    rows.append(number_row("A / B: settlement at the first peak, E_k 2.8e6 over 2.8e7 (10x stiffer)",
-                           THESIS_MEAN / THESIS_WITHIN[0], [np.mean(a) / x for x in w[:, 0]], 1.0, "", label,
-                           confidence))
+    w = None
+    if "ten-cycles" not in case:
+        rows.append(not_run("B (E_k 2.8e7, 10 cycles)", ["ten-cycles"], label))
+    else:
+        w = np.array([within(m) for m in case["ten-cycles"]])
+        rows.append(number_row("B (E_k 2.8e7, 10 cycles): settlement within cycle 1", THESIS_WITHIN[0], w[:, 0], MM,
+                               "mm", label, confidence))
+        rows.append(number_row("B: settlement within cycle 10", THESIS_WITHIN[1], w[:, -1], MM, "mm", label,
+                               confidence))
+        rows.append(number_row("B: within cycle 1 / within cycle 10", THESIS_WITHIN[0] / THESIS_WITHIN[1],
+                               w[:, 0] / w[:, -1], 1.0, "", label, confidence))
+        rows.append(number_row("A / B: settlement at the first peak, E_k 2.8e6 over 2.8e7 (10x stiffer)",
+                               THESIS_MEAN / THESIS_WITHIN[0], [np.mean(a) / x for x in w[:, 0]], 1.0, "", label,
+                               confidence))
 
-    # the stiffness study
-    e_peak = [[column(m, "settlement_peak", k) for m in case[c]] for c, _, k in STIFFNESS_CASES]
-    e_rebound = [[rebound(m, k) for m in case[c]] for c, _, k in STIFFNESS_CASES]
-    means = [float(np.mean(v)) for v in e_peak]
-    reb = [float(np.mean(v)) for v in e_rebound]
-    rows.append(finding_row("stiffness study: settlement at the peak falls with E_k (2.8e6 … 2.8e10)", "falls",
-                            series_text(means, MM, "mm"), all(np.diff(means) < 0), len(e_peak[0]), label))
-    rows.append(finding_row("stiffness study: the rebound at unloading is larger for softer ballast",
-                            "larger when softer", series_text(reb, MM, "mm"), all(np.diff(reb) < 0), len(e_peak[0]),
-                            label))
+    # the stiffness study (the points there are)
+    sweep = [(c, e, k) for c, e, k in STIFFNESS_CASES if c in case]
+    e_peak = [[column(m, "settlement_peak", k) for m in case[c]] for c, _, k in sweep]
+    if len(sweep) < 2:
+        rows.append(not_run("stiffness study", [c for c, *_ in STIFFNESS_CASES if c not in case], label))
+    else:
+        means = [float(np.mean(v)) for v in e_peak]
+        reb = [float(np.mean([rebound(m, k) for m in case[c]])) for c, _, k in sweep]
+        at = "E_k " + ", ".join(f"{e:.2g}".replace("e+0", "e").replace("e+", "e") for _, e, _ in sweep)
+        rows.append(finding_row(f"stiffness study: settlement at the peak falls with E_k ({at})", "falls",
+                                series_text(means, MM, "mm"), all(np.diff(means) < 0), len(e_peak[0]), label))
+        rows.append(finding_row(f"stiffness study: the rebound at unloading is larger for softer ballast ({at})",
+                                "larger when softer", series_text(reb, MM, "mm"), all(np.diff(reb) < 0),
+                                len(e_peak[0]), label))
 
     # unloading stiffness: radius spread and clumps
-    k_spread = [unloading_stiffness(m) for m in cal[best]]
-    k_const = [unloading_stiffness(m) for m in case["constant-radius"]]
-    p = welch(k_spread, k_const)
-    rows.append(finding_row("unloading stiffness, radii ±40 % against constant (E_k 2.8e6)", "independent",
-                            f"{np.mean(k_spread) * MN:.3g} / {np.mean(k_const) * MN:.3g} MN/m, Welch p = {p:.2g}",
-                            p >= 0.05, len(k_const), label))
-    k_sph = [unloading_stiffness(m) for m in case["spheres-3e6"]]
-    k_clu = [unloading_stiffness(m) for m in case["clumps-3e6"]]
-    p = welch(k_clu, k_sph)
-    rows.append(finding_row("unloading stiffness, 8-sphere clumps against spheres (E_k 3e6)", "higher for clumps",
-                            f"{np.mean(k_clu) * MN:.3g} / {np.mean(k_sph) * MN:.3g} MN/m, Welch p = {p:.2g}",
-                            np.mean(k_clu) > np.mean(k_sph) and p < 0.05, len(k_clu), label))
+    if "constant-radius" not in case:
+        rows.append(not_run("unloading stiffness, radii ±40 % against constant", ["constant-radius"], label))
+    else:
+        k_spread = [unloading_stiffness(m) for m in cal[best]]
+        k_const = [unloading_stiffness(m) for m in case["constant-radius"]]
+        p = welch(k_spread, k_const)
+        rows.append(finding_row("unloading stiffness, radii ±40 % against constant (E_k 2.8e6)", "independent",
+                                f"{np.mean(k_spread) * MN:.3g} / {np.mean(k_const) * MN:.3g} MN/m, Welch p = {p:.2g}",
+                                p >= 0.05, len(k_const), label))
+    gone = [c for c in ("spheres-3e6", "clumps-3e6") if c not in case]
+    if gone:
+        rows.append(not_run("unloading stiffness, 8-sphere clumps against spheres", gone, label))
+    else:
+        k_sph = [unloading_stiffness(m) for m in case["spheres-3e6"]]
+        k_clu = [unloading_stiffness(m) for m in case["clumps-3e6"]]
+        p = welch(k_clu, k_sph)
+        rows.append(finding_row("unloading stiffness, 8-sphere clumps against spheres (E_k 3e6)", "higher for clumps",
+                                f"{np.mean(k_clu) * MN:.3g} / {np.mean(k_sph) * MN:.3g} MN/m, Welch p = {p:.2g}",
+                                np.mean(k_clu) > np.mean(k_sph) and p < 0.05, len(k_clu), label))
 
     # damping: magnitude against shape
-    d_max = [float(np.mean([column(m, "settlement_max") for m in case[c]])) for c, _ in DAMPING_CASES]
-    d_kept = [float(np.mean([kept_fraction(m) for m in case[c]])) for c, _ in DAMPING_CASES]
-    mag, shape = max(d_max) / min(d_max), max(d_kept) / min(d_kept)
-    rows.append(finding_row("damping λ_D 0.2/0.3/0.6/0.9: changes the magnitude (max/min of the largest settlement) "
-                            "more than the shape (max/min of the kept fraction)", "magnitude, not shape",
-                            f"{series_text(d_max, MM, 'mm')} ({mag:.3g}x); kept {series_text(d_kept, 1, '')} "
-                            f"({shape:.3g}x)", shape < mag, len(case["constant-radius"]), label))
+    damp = [(c, lam) for c, lam in DAMPING_CASES if c in case]
+    if len(damp) < 2:
+        rows.append(not_run("damping study", [c for c, _ in DAMPING_CASES if c not in case], label))
+    else:
+        d_max = [float(np.mean([column(m, "settlement_max") for m in case[c]])) for c, _ in damp]
+        d_kept = [float(np.mean([kept_fraction(m) for m in case[c]])) for c, _ in damp]
+        mag, shape = max(d_max) / min(d_max), max(d_kept) / min(d_kept)
+        at = "/".join(f"{lam:g}" for _, lam in damp)
+        rows.append(finding_row(f"damping λ_D {at}: changes the magnitude (max/min of the largest settlement) "
+                                "more than the shape (max/min of the kept fraction)", "magnitude, not shape",
+                                f"{series_text(d_max, MM, 'mm')} ({mag:.3g}x); kept {series_text(d_kept, 1, '')} "
+                                f"({shape:.3g}x)", shape < mag, len(case[damp[0][0]]), label))
 
     # frequency: sinking after the force peak
-    fr = [float(np.mean([sinking_after_peak(m) for m in case[c]])) for c, _ in FREQUENCY_CASES]
-    rows.append(finding_row("frequency 1/0.1/0.01 Hz: sinking after the force peak (share of the largest settlement)",
-                            "rounded at 1 Hz, sharp tip at 0.01 Hz", series_text(fr, 1, ""),
-                            all(np.diff(fr) < 0), len(case["ten-cycles"]), label))
-    ctx = dict(best=best, opts=opts, peak=peak, within=w, stiffness=e_peak, case=case, confidence=confidence)
+    freq = [(c, f) for c, f in FREQUENCY_CASES if c in case]
+    if len(freq) < 2:
+        rows.append(not_run("frequency study", [c for c, _ in FREQUENCY_CASES if c not in case], label))
+    else:
+        fr = [float(np.mean([sinking_after_peak(m) for m in case[c]])) for c, _ in freq]
+        at = "/".join(f"{f:g}" for _, f in freq)
+        rows.append(finding_row(f"frequency {at} Hz: sinking after the force peak (share of the largest settlement)",
+                                "rounded at 1 Hz, sharp tip at 0.01 Hz", series_text(fr, 1, ""),
+                                all(np.diff(fr) < 0), len(case[freq[0][0]]), label))
+    ctx = dict(best=best, opts=opts, peak=peak, within=w, sweep=sweep, stiffness=e_peak, damping=damp,
+               frequency=freq, case=case, confidence=confidence)
     return rows, ctx
 
 
@@ -309,6 +340,8 @@ def plot_calibration(path, ctx):
 
 
 def plot_ten_cycles(path, ctx):
+    if ctx["within"] is None:
+        return None
     fig, ax = _figure()
     w = ctx["within"] * MM
     k = np.arange(1, w.shape[1] + 1)
@@ -324,8 +357,10 @@ def plot_ten_cycles(path, ctx):
 
 
 def plot_stiffness(path, ctx):
+    if len(ctx["sweep"]) < 2:
+        return None
     fig, ax = _figure()
-    e = np.array([x for _, x, _ in STIFFNESS_CASES])
+    e = np.array([x for _, x, _ in ctx["sweep"]])
     for j, vals in enumerate(ctx["stiffness"]):
         ax.plot([e[j]] * len(vals), np.array(vals) * MM, ".", color="C0", alpha=0.5)
     ax.plot(e, [np.mean(v) * MM for v in ctx["stiffness"]], "o-", color="C0", label="pdem (constant radius), mean")
@@ -342,16 +377,18 @@ def plot_loops(path, ctx):
     from matplotlib.figure import Figure
 
     fig = Figure(figsize=(10, 4.5), layout="constrained")
-    for ax, study, title in ((fig.add_subplot(1, 2, 1), DAMPING_CASES, "damping λ_D (E_k 2.8e6)"),
-                             (fig.add_subplot(1, 2, 2), FREQUENCY_CASES, "frequency [Hz] (E_k 2.8e7)")):
+    for ax, study, title in ((fig.add_subplot(1, 2, 1), ctx["damping"], "damping λ_D (E_k 2.8e6)"),
+                             (fig.add_subplot(1, 2, 2), ctx["frequency"], "frequency [Hz] (E_k 2.8e7)")):
+        m = None
         for c, v in study:
             m = ctx["case"][c][0]
             s = m.results().series
-            t_end = s["time"][0] + (1.0 / v if study is FREQUENCY_CASES else np.inf)
+            t_end = s["time"][0] + (1.0 / v if study is ctx["frequency"] else np.inf)
             keep = s["time"] <= t_end
             ax.plot(s["sleeper_settlement"][keep] * MM, s["sleeper_force"][keep] * 1e-3, lw=0.8, label=f"{v:g}")
+        seed = m.params.get("box_test.seed", "") if m is not None else "-"
         ax.set(xlabel="sleeper settlement [mm]", ylabel="ballast force on the sleeper [kN]",
-               title=f"{title}, seed {m.params.get('box_test.seed', '')}, cycle 1")
+               title=f"{title}, seed {seed}, cycle 1")
         ax.grid(True, alpha=0.3)
         ax.legend(fontsize="small")
     return _save(fig, path)
@@ -366,7 +403,9 @@ def box_checks_report(calibration, checks, out=None, confidence=0.95):
     written = write_table(rows, out, calib, chk, ctx)
     for name, plot in (("calibration", plot_calibration), ("ten_cycles", plot_ten_cycles),
                        ("stiffness", plot_stiffness), ("loops", plot_loops)):
-        written.append(plot(out / f"checks_{name}.png", ctx))
+        path = plot(out / f"checks_{name}.png", ctx)
+        if path is not None:
+            written.append(path)
     return written
 
 
