@@ -84,3 +84,4 @@ def test_checks_use_the_calibrated_option_set_on_the_thesis_studies(tmp_path):
     assert [cases[f"frequency-{f}"]["box_test"]["frequency"] for f in ("0.1", "0.01")] == [0.1, 0.01]
     assert [cases[f"damping-{x}"]["simulation"]["damping"] for x in ("0.2", "0.6", "0.9")] == [0.2, 0.6, 0.9]
     assert cases["clumps-3e6"]["box_test"]["clumps"]["shape"] == "ballast8"
+    assert cases["clumps-3e6"]["box_test"]["base"] == cases["spheres-3e6"]["box_test"]["base"] == "two_sided"
