@@ -51,7 +51,7 @@ from pathlib import Path
 import numpy as np
 from scipy import stats as sps
 
-from .campaign import CampaignError, _finite, _figure, _save, read_campaign, stats
+from .campaign import CampaignError, _finite, _figure, _save, group_members, read_campaign, stats
 
 THESIS_MEAN, THESIS_MIN, THESIS_MAX = 63.5e-3, 55.1e-3, 76.0e-3  # study A, settlement at the peak [m]
 THESIS_WITHIN = (26.5e-3, 3.35e-3)  # study B, settlement within cycle 1 and cycle 10 [m]
@@ -79,13 +79,8 @@ class Check:
 
 # ---------------------------------------------------------------------------- members
 def by_case(camp):
-    """{case: [done members, by seed]} of a campaign made of [[case]] tables."""
-    out = {}
-    for m in camp.done:
-        out.setdefault(m.params.get("case", ""), []).append(m)
-    for ms in out.values():
-        ms.sort(key=lambda m: m.params.get(camp.seed_key, 0))
-    return out
+    """{case: [done members]} of a campaign made of [[case]] tables (`group_members`' groups)."""
+    return {g.params.get("case", ""): g.members for g in group_members(camp.done, camp.seed_key)}
 
 
 def cycles(member):
