@@ -219,3 +219,20 @@ def test_stiffening_needs_the_linear_law_and_the_full_stiffness_job_checks():
     check(doc)
     c = box_settings(doc)
     assert (c["prep_stiffness_factor"], c["cycles"], doc["materials"]["ballast"]["young"]) == (1e-4, 10, 2.8e11)
+
+
+def test_the_calibrated_full_stiffness_job_uses_the_checks_option_set():
+    """jobs/box_test_full_calibrated.toml = jobs/box_test_full_10.toml prepared with the option set
+    of jobs/campaigns/box_checks.toml (the calibration's choice)."""
+    jobs = Path(__file__).parents[2] / "jobs"
+    doc = tomllib.loads((jobs / "box_test_full_calibrated.toml").read_text())
+    full = tomllib.loads((jobs / "box_test_full_10.toml").read_text())
+    chosen = {k: v for k, v in tomllib.loads((jobs / "campaigns" / "box_checks.toml").read_text())["set"].items()
+              if k.startswith("box_test.")}
+    check(doc)
+    assert chosen and all(doc["box_test"][k.split(".", 1)[1]] == v for k, v in chosen.items())
+    different = {k for k in set(doc["box_test"]) | set(full["box_test"])
+                 if doc["box_test"].get(k) != full["box_test"].get(k)}
+    assert different == {k.split(".", 1)[1] for k in chosen}
+    assert {k: v for k, v in doc.items() if k != "box_test"} == {k: v for k, v in full.items() if k != "box_test"}
+    assert box_settings(doc)["sleeper_mass"] < 10.0  # Yade's member mass, 9.37 kg
