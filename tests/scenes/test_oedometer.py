@@ -160,3 +160,27 @@ def test_scene_file_round_trip(tmp_path):
 
     doc = ci_doc(load_time=0.05)
     assert tomllib.loads(toml_text(doc)) == doc
+
+
+def test_the_scaled_thesis_size_job_is_the_thesis_job_scaled():
+    """jobs/oedometer_breakable_scaled.toml is jobs/oedometer_breakable.toml with every stiffness,
+    cohesion and force × s = 1e-2 and the load time × 1/√s, nothing else in [materials] and
+    [oedometer] changed; both pass the scene's checks."""
+    import tomllib
+
+    jobs = CI_JOB.parent
+    thesis, scaled = (tomllib.loads((jobs / f"oedometer_breakable{s}.toml").read_text()) for s in ("", "_scaled"))
+    s = 1e-2
+    for name, m in thesis["materials"].items():
+        for k in ("young", "normal_cohesion", "shear_cohesion"):
+            assert scaled["materials"][name][k] == pytest.approx(s * m[k], rel=1e-12)
+        rest = {k: v for k, v in m.items() if k not in ("young", "normal_cohesion", "shear_cohesion")}
+        assert {k: scaled["materials"][name][k] for k in rest} == rest
+    t, c = thesis["oedometer"], scaled["oedometer"]
+    for k in ("f_min", "f_max"):
+        assert c[k] == pytest.approx(s * t[k], rel=1e-12)
+    assert c["load_time"] == pytest.approx(t["load_time"] / math.sqrt(s), rel=1e-12)
+    scaled_keys = {"f_min", "f_max", "load_time"}
+    assert {k: v for k, v in c.items() if k not in scaled_keys} == {k: v for k, v in t.items() if k not in scaled_keys}
+    for doc in (thesis, scaled):
+        assert oedometer.settings(doc)["grain"]["breakable"]
