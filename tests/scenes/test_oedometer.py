@@ -169,12 +169,14 @@ def test_the_scaled_thesis_size_job_is_the_thesis_job_scaled():
     import tomllib
 
     jobs = CI_JOB.parent
-    thesis, scaled = (tomllib.loads((jobs / f"oedometer_breakable{s}.toml").read_text()) for s in ("", "_scaled"))
+    thesis, scaled = (tomllib.loads((jobs / f"oedometer_breakable{suffix}.toml").read_text())
+                      for suffix in ("", "_scaled"))
     s = 1e-2
+    strengths = ("young", "normal_cohesion", "shear_cohesion")
     for name, m in thesis["materials"].items():
-        for k in ("young", "normal_cohesion", "shear_cohesion"):
+        for k in strengths:
             assert scaled["materials"][name][k] == pytest.approx(s * m[k], rel=1e-12)
-        rest = {k: v for k, v in m.items() if k not in ("young", "normal_cohesion", "shear_cohesion")}
+        rest = {k: v for k, v in m.items() if k not in strengths}
         assert {k: scaled["materials"][name][k] for k in rest} == rest
     t, c = thesis["oedometer"], scaled["oedometer"]
     for k in ("f_min", "f_max"):
