@@ -53,7 +53,8 @@ Kind "blast" (SPEC 2.5, blast paper section 3)
 Kind "oedometer" (SPEC 2.2, thesis ch. 4)
     ``/series`` `OEDOMETER_SERIES`: ``platen_load`` [N] (the applied program, downward, as a
     positive magnitude), ``platen_force`` [N] (force of the ballast on the platen, positive
-    upward), ``platen_displacement`` [m] (positive downward, zero when loading starts);
+    upward), ``platen_displacement`` [m] (positive downward, zero when loading starts),
+    ``max_overlap_ratio`` [-] (the largest overlap over the smaller radius of its pair);
     ``/fragments`` records "initial", "vibrated", "peak", "unloaded" with breakable clumps.
 Kind "track" (SPEC 2.4). Sleepers are numbered 0..n_sleepers-1 along the track axis.
     pdem writes ``/series`` `TRACK_SERIES` (``applied_load`` [N]: total applied load on the
@@ -155,7 +156,8 @@ PREPARATION_SERIES = {"step": "-", "time": "s", "stage": "-", "n_spheres": "-", 
                       "unbalanced_force": "-", "contacts_per_particle": "-", "bed_top": "m", "sleeper_z": "m"}
 # the oedometer's load record (kind "oedometer", pdem.scenes.oedometer)
 OEDOMETER_SERIES = {"step": "-", "time": "s", "dt": "s", "platen_load": "N", "platen_force": "N",
-                    "platen_displacement": "m", "kinetic_energy": "J", "contacts_per_particle": "-"}
+                    "platen_displacement": "m", "kinetic_energy": "J", "contacts_per_particle": "-",
+                    "max_overlap_ratio": "-"}
 # the blast run's record (kind "blast", pdem.scenes.blast): time 0 at the start of the impulse
 BLAST_RUN_SERIES = {"step": "-", "time": "s", "dt": "s", "plate_position": "m", "plate_velocity": "m/s",
                     "ceiling_stress": "Pa", "input_force": "N", "kinetic_energy": "J"}

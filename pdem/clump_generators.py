@@ -1,7 +1,10 @@
 """Clump shapes (member spheres of one grain) and clouds of randomly oriented grains.
 
 Shapes, each centred at the origin, members on a cubic grid of spacing 2r (face neighbours touch,
-so the members form one body, and bonds join them when the clump is breakable):
+so the members form one body, and bonds join them when the clump is breakable). ``spacing`` [m]
+(≤ 2r, default 2r) puts nearest neighbours closer, so that they overlap by 2r − spacing: the thesis
+puts spheres of Ø7.2 mm 7.1 mm apart (4.4–4.5: a cohesive contact needs an initial overlap), and
+Yade's bonds made on such an overlap start loaded (``stress_free = false``):
 
 - `shape_members("ellipsoid", r, radii)`: the grid points whose sphere lies inside the ellipsoid of
   semi-axes radii = (R_x, R_y, R_z): Σ (x_k/(R_k − r))² ≤ 1. The thesis generated its clumps so
@@ -49,21 +52,31 @@ def _inside(shape, p, semi):
     return (q[:, 1] ** 2 + q[:, 2] ** 2 <= 1.0 + _TOL) & (np.abs(q[:, 0]) <= 1.0 + _TOL)
 
 
-def shape_members(shape, member_radius, radii):
+def _spacing(r, spacing):
+    """The nearest-neighbour distance [m]: 2r if ``spacing`` is None, else the checked value in (0, 2r]."""
+    if spacing is None:
+        return 2.0 * r
+    return number("clumps.member_spacing", spacing, 0.0, 2.0 * r, lo_open=True,
+                  allow=f"a number in (0, 2 member_radius = {2.0 * r:g}] [m] (members must touch or overlap)")
+
+
+def shape_members(shape, member_radius, radii, spacing=None):
     """(pos [n, 3], radius [n]) of the members of one grain of ``shape`` ("ellipsoid",
-    "cylinder", "cake") with semi-axes ``radii`` (R_x, R_y, R_z) [m] and member radius [m]."""
+    "cylinder", "cake") with semi-axes ``radii`` (R_x, R_y, R_z) [m], member radius [m] and grid
+    ``spacing`` [m] (default 2 member_radius)."""
     if shape not in SHAPES:
         raise InputError(f"clumps.shape = {shape!r}: must be one of {', '.join(SHAPES)}, nottingham, ballast8")
     r = number("clumps.member_radius", member_radius, 0.0, lo_open=True, allow="a number > 0 [m]")
+    h = _spacing(r, spacing)
     big = vector3("clumps.radii", radii)
     if not np.all(big > r):
         raise InputError(f"clumps.radii = {big.tolist()}: every semi-axis must exceed member_radius = {r:g} m")
     semi = big - r
     best = None
     for offset in (0.0, 0.5):  # grid through the centre, or centre in the middle of a cell
-        k = np.arange(-int(np.ceil(semi.max() / (2 * r))) - 1, int(np.ceil(semi.max() / (2 * r))) + 2)
+        k = np.arange(-int(np.ceil(semi.max() / h)) - 1, int(np.ceil(semi.max() / h)) + 2)
         g = np.stack(np.meshgrid(k, k, k, indexing="ij"), -1).reshape(-1, 3) + offset
-        p = g * (2.0 * r)
+        p = g * h
         p = p[_inside(shape, p, semi)]
         if best is None or len(p) > len(best):
             best = p
@@ -73,22 +86,25 @@ def shape_members(shape, member_radius, radii):
     return best, np.full(len(best), r)
 
 
-def nottingham_grain(member_radius=NOTTINGHAM_MEMBER_RADIUS):
+def nottingham_grain(member_radius=NOTTINGHAM_MEMBER_RADIUS, spacing=None):
     """(pos [135, 3], radius [135]): a sphere and its 7 nearest shells of an FCC packing of
-    touching spheres of ``member_radius`` [m]."""
+    spheres of ``member_radius`` [m], nearest neighbours ``spacing`` [m] apart (default 2r: touching)."""
     r = number("clumps.member_radius", member_radius, 0.0, lo_open=True, allow="a number > 0 [m]")
+    h = _spacing(r, spacing)
     k = np.arange(-4, 5)
     g = np.stack(np.meshgrid(k, k, k, indexing="ij"), -1).reshape(-1, 3)
     g = g[(g.sum(axis=1) % 2 == 0) & (np.einsum("ij,ij->i", g, g) <= 14)]  # |p|² ≤ 7 (2r)²
-    pos = g * (np.sqrt(2.0) * r)  # FCC sites (i, j, k)·a/2, i + j + k even, a/2 = √2 r
+    pos = g * (h / np.sqrt(2.0))  # FCC sites (i, j, k)·a/2, i + j + k even, a/2 = h/√2
     return pos, np.full(len(pos), r)
 
 
-def ballast8(member_radius=BALLAST8_MEMBER_RADIUS):
-    """(pos [8, 3], radius [8]): 2 × 2 × 2 touching spheres of ``member_radius`` [m]."""
+def ballast8(member_radius=BALLAST8_MEMBER_RADIUS, spacing=None):
+    """(pos [8, 3], radius [8]): 2 × 2 × 2 spheres of ``member_radius`` [m], ``spacing`` [m] apart
+    (default 2r: touching)."""
     r = number("clumps.member_radius", member_radius, 0.0, lo_open=True, allow="a number > 0 [m]")
+    h = _spacing(r, spacing)
     g = np.stack(np.meshgrid([-1.0, 1.0], [-1.0, 1.0], [-1.0, 1.0], indexing="ij"), -1).reshape(-1, 3)
-    return g * r, np.full(8, r)
+    return g * (0.5 * h), np.full(8, r)
 
 
 def random_rotations(n, rng):

@@ -24,7 +24,9 @@ Values are typed strictly: numbers are numbers (``true`` is not 1), booleans are
     [[clumps]]     grains of one shape (`pdem.clump_generators`), each turned at random, on a
                    grid in a box: shape ("ellipsoid"|"cylinder"|"cake" with radii [m] =
                    [R_x, R_y, R_z], or "nottingham"|"ballast8"), member_radius [m] (default of
-                   the named grains: 3.55 mm, 8.5 mm), material, box_lo, box_hi [m], count, seed,
+                   the named grains: 3.55 mm, 8.5 mm), member_spacing [m] (of nearest
+                   neighbours; default 2 member_radius, less overlaps them), material,
+                   box_lo, box_hi [m], count, seed,
                    breakable (bonded members, law "cohesive"), stress_free, mass_model
                    ("members"|"grid"|"monte_carlo"), discretization, samples, vel [m/s]
 """
@@ -57,8 +59,8 @@ WALL_KEYS = {"axis", "position", "material", "sense", "velocity"}
 FACET_KEYS = {"vertices", "material", "velocity"}
 SPHERE_KEYS = {"pos", "radius", "material", "fixed", "vel"}
 DEPOSITION_KEYS = {"box_lo", "box_hi", "count", "radius", "radius_spread", "seed", "material", "walls_material"}
-CLUMP_KEYS = {"shape", "radii", "member_radius", "material", "box_lo", "box_hi", "count", "seed", "breakable",
-              "stress_free", "mass_model", "discretization", "samples", "vel"}
+CLUMP_KEYS = {"shape", "radii", "member_radius", "member_spacing", "material", "box_lo", "box_hi", "count", "seed",
+              "breakable", "stress_free", "mass_model", "discretization", "samples", "vel"}
 TOP_KEYS = {"simulation", "run", "materials", "material_pairs", "walls", "facets", "spheres", "deposition", "clumps"}
 AXES = {"x": 0, "y": 1, "z": 2}
 
@@ -178,14 +180,14 @@ def grain_shape(c, label):
 
     shape = c.get("shape")
     if shape == "nottingham":
-        return nottingham_grain(c.get("member_radius", NOTTINGHAM_MEMBER_RADIUS))
+        return nottingham_grain(c.get("member_radius", NOTTINGHAM_MEMBER_RADIUS), c.get("member_spacing"))
     if shape == "ballast8":
-        return ballast8(c.get("member_radius", BALLAST8_MEMBER_RADIUS))
+        return ballast8(c.get("member_radius", BALLAST8_MEMBER_RADIUS), c.get("member_spacing"))
     if shape in ("ellipsoid", "cylinder", "cake"):
         for key in ("radii", "member_radius"):
             if key not in c:
                 raise InputError(f"{label}.{key}: required key is missing for shape {shape!r}")
-        return shape_members(shape, c["member_radius"], c["radii"])
+        return shape_members(shape, c["member_radius"], c["radii"], c.get("member_spacing"))
     raise InputError(f"{label}.shape = {shape!r}: must be one of ellipsoid, cylinder, cake, nottingham, ballast8")
 
 

@@ -34,7 +34,8 @@ the cloud.
 Output in the run directory: ``preparation.h5`` and ``preparation.png`` (the pipeline),
 ``results.h5`` (kind "oedometer", `analysis.schema.OEDOMETER_SERIES`: ``platen_load`` [N, the
 program, down], ``platen_force`` [N, force of the ballast on the platen, up],
-``platen_displacement`` [m, down, zero when loading starts]; with breakable clumps
+``platen_displacement`` [m, down, zero when loading starts], ``max_overlap_ratio`` [-, the largest
+overlap over the smaller radius of its pair: how far the load pushes the contacts]; with breakable clumps
 ``/fragments`` records "initial" (after the cut and settling), "vibrated" (after vibrating, if
 any), "peak" (at F_max) and "unloaded" (at the end), and every ``run.fragments_every`` steps),
 the analysis of `analysis.oedometer` in ``analysis/`` (force–displacement PNG, loading and
@@ -46,6 +47,7 @@ import numpy as np
 from analysis.schema import OEDOMETER_SERIES
 
 from ..config import CLUMP_KEYS, check_keys, grain_shape, run_settings, scene_from_dict
+from ..driver import observables
 from ..driver.fragments import FragmentRecorder
 from ..driver.preparation import PREPARATION_DEFAULTS, PREPARATION_STAGES, PreparedRun, check_preparation, \
     plot_preparation
@@ -252,7 +254,8 @@ def load_sample(sim, reference, load=None):
             "platen_load": float(-bx.load_force[0, 2]) if load is None else float(load),
             "platen_force": float(bx.contact_force[0, 2]),
             "platen_displacement": float(reference - bx.center[0, 2]),
-            "kinetic_energy": e["kinetic"] + e["rotational"], "contacts_per_particle": sim.contacts_per_particle()}
+            "kinetic_energy": e["kinetic"] + e["rotational"], "contacts_per_particle": sim.contacts_per_particle(),
+            "max_overlap_ratio": observables.max_overlap_ratio(sim)}
 
 
 # ---------------------------------------------------------------------------- the run

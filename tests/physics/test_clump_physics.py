@@ -9,6 +9,10 @@
 - A bond pulled quasi-statically (the spheres moved, no dynamics) breaks when its tension reaches
   a_N = c_N r_min² (within 1e-9 relative), in shear when |Fs| reaches a_T + Fn tan φ with
   a_T = c_T r_min²; a stress-free bond carries no force where it was made.
+- A bond made on an overlap δ as Yade makes it (not stress free), released between two free
+  spheres without damping: a linear spring let go from compression k_n δ swings to the tension
+  k_n δ (energy conservation), so the bond survives if k_n δ < a_N and breaks if k_n δ > a_N
+  (the thesis's margin, 4.5: its grains' bonds start at k_n δ ≈ a_N).
 - A breakable grain hitting the floor breaks into fragments whose member counts and masses add up
   to the grain's.
 """
@@ -158,6 +162,40 @@ def test_stress_free_bond_carries_nothing_where_made():
     sim, _ = bonded_pair(stress_free=False, pen0=5e-6)
     sim.run(1)
     assert sim.particles.force[1] @ bond_state(sim)["normal"] > 0.0  # Yade's bond: the overlap pushes
+
+
+def released_overlap(kn_delta_over_an, steps=400):
+    """Two free equal spheres (r 5 mm) bonded on an overlap δ with k_n δ = ``kn_delta_over_an`` a_N,
+    not stress free, no damping, no gravity; (sim, δ, k_n, a_N, tensions of every step [N])."""
+    r, young, cohesion = 0.005, 1e8, 2e5
+    kn, a_n = young * r, cohesion * r * r  # Yade: k_n = 2 E r1 r2 / (r1 + r2) = E r; a_N = c_N r²
+    delta = kn_delta_over_an * a_n / kn
+    sc = Scene(dt=1e-6, damping=0.0, gravity=(0.0, 0.0, 0.0), law="cohesive", allow_initial_overlap=True)
+    m = sc.material(density=2600.0, young=young, poisson=0.3, friction_angle=0.5, normal_cohesion=cohesion,
+                    shear_cohesion=cohesion)
+    sc.add_spheres([(0.0, 0.0, 0.0), (2 * r - delta, 0.0, 0.0)], r, m)
+    sc.add_bonds([[0, 1]], stress_free=False)
+    sim = sc.build()
+    tensions = []
+    for _ in range(steps):
+        sim.run(1)
+        s = bond_state(sim)
+        if s is None or s["normal_adhesion"] == 0.0:
+            break
+        tensions.append(-(s["normal_force"] @ s["normal"]))
+    return sim, delta, kn, a_n, np.array(tensions)
+
+
+def test_bond_made_on_an_overlap_swings_to_the_same_tension():
+    """Half a period of the pair (m/2 on k_n: T/2 = π √(m / (2 k_n)) ≈ 116 steps here) takes the
+    bond from compression k_n δ to tension k_n δ; it holds at 0.9 a_N and breaks at 1.1 a_N."""
+    sim, delta, kn, a_n, tension = released_overlap(0.9)
+    assert len(tension) == 400  # intact after several periods
+    assert tension[0] == pytest.approx(-kn * delta, rel=1e-2)  # starts pushing
+    assert tension.max() == pytest.approx(0.9 * a_n, rel=1e-3)  # and swings to the same pull
+    _, _, _, a_n, tension = released_overlap(1.1)
+    assert len(tension) < 400 and tension.max() <= a_n  # broke on the first swing, before exceeding a_N
+    assert tension.max() > 0.98 * a_n  # within one step (1.2 % of a_N here) of breaking
 
 
 def test_bond_breaks_in_tension_at_normal_adhesion():

@@ -112,6 +112,8 @@ def test_platen_follows_the_program(r1):
     mean_load = np.trapezoid(s["platen_load"], s["time"]) / (s["time"][-1] - t0)
     assert mean_force == pytest.approx(mean_load + weight, rel=0.1)
     assert s["platen_displacement"][0] == 0.0 and s["platen_displacement"].max() > 0
+    # the largest overlap / radius: positive under load, below the stability guard's 0.5
+    assert 0.0 < s["max_overlap_ratio"].min() and s["max_overlap_ratio"].max() < 0.5
 
 
 @pytest.mark.slow

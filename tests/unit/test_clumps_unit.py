@@ -55,6 +55,19 @@ def test_ballast8_and_thesis_shapes():
     assert np.abs(pos[:, 0]).max() <= 0.010 - 0.0036 and np.hypot(pos[:, 1], pos[:, 2]).max() <= 0.037 - 0.0036
 
 
+def test_member_spacing_overlaps_nearest_neighbours():
+    """``spacing`` < 2r: the same members (same grid, scaled), nearest neighbours overlapping by
+    2r − spacing (the thesis's Ø7.2 mm spheres 7.1 mm apart), the same bond graph."""
+    from pdem.bonds import touching_pairs
+
+    for make in (lambda h: nottingham_grain(0.0036, h), lambda h: shape_members("ellipsoid", 0.0036, (0.024,) * 3, h),
+                 lambda h: ballast8(0.0036, h)):
+        (p0, _), (p1, r1) = make(None), make(0.0071)
+        assert len(p1) == len(p0) and np.allclose(p1, p0 * (0.0071 / 0.0072), rtol=0, atol=1e-15)
+        assert pair_distances(p1).min() == pytest.approx(0.0071, rel=1e-12)
+        assert [a.tolist() for a in touching_pairs("x", p1, r1)] == [a.tolist() for a in touching_pairs("x", p0, r1)]
+
+
 def test_grain_cloud():
     pos, r = ballast8(0.005)
     grains = grain_cloud(pos, r, (0, 0, 0), (0.2, 0.1, 0.1), 20, seed=4)
@@ -217,6 +230,8 @@ TOML = {"simulation": {"law": "cohesive"}, "materials": {"grain": COH},
     ({"shape": "ellipsoid"}, ["clumps[0].radii", "missing"]),
     ({"count": 0}, ["clumps[0].count = 0", ">= 1"]),
     ({"breakable": "yes"}, ["breakable = 'yes'", "true or false"]),
+    ({"member_spacing": 0.011}, ["clumps.member_spacing = 0.011", "(0, 2 member_radius = 0.01]"]),
+    ({"member_spacing": 0}, ["clumps.member_spacing = 0", "members must touch or overlap"]),
 ])
 def test_toml_clump_errors(change, words):
     import copy
