@@ -166,7 +166,7 @@ def test_stress_free_bond_carries_nothing_where_made():
 
 def released_overlap(kn_delta_over_an, steps=400):
     """Two free equal spheres (r 5 mm) bonded on an overlap δ with k_n δ = ``kn_delta_over_an`` a_N,
-    not stress free, no damping, no gravity; (sim, δ, k_n, a_N, tensions of every step [N])."""
+    not stress free, no damping, no gravity; (δ, k_n, a_N, tensions of every step [N])."""
     r, young, cohesion = 0.005, 1e8, 2e5
     kn, a_n = young * r, cohesion * r * r  # Yade: k_n = 2 E r1 r2 / (r1 + r2) = E r; a_N = c_N r²
     delta = kn_delta_over_an * a_n / kn
@@ -183,17 +183,17 @@ def released_overlap(kn_delta_over_an, steps=400):
         if s is None or s["normal_adhesion"] == 0.0:
             break
         tensions.append(-(s["normal_force"] @ s["normal"]))
-    return sim, delta, kn, a_n, np.array(tensions)
+    return delta, kn, a_n, np.array(tensions)
 
 
 def test_bond_made_on_an_overlap_swings_to_the_same_tension():
     """Half a period of the pair (m/2 on k_n: T/2 = π √(m / (2 k_n)) ≈ 116 steps here) takes the
     bond from compression k_n δ to tension k_n δ; it holds at 0.9 a_N and breaks at 1.1 a_N."""
-    sim, delta, kn, a_n, tension = released_overlap(0.9)
+    delta, kn, a_n, tension = released_overlap(0.9)
     assert len(tension) == 400  # intact after several periods
     assert tension[0] == pytest.approx(-kn * delta, rel=1e-2)  # starts pushing
     assert tension.max() == pytest.approx(0.9 * a_n, rel=1e-3)  # and swings to the same pull
-    _, _, _, a_n, tension = released_overlap(1.1)
+    _, _, a_n, tension = released_overlap(1.1)
     assert len(tension) < 400 and tension.max() <= a_n  # broke on the first swing, before exceeding a_N
     assert tension.max() > 0.98 * a_n  # within one step (1.2 % of a_N here) of breaking
 
