@@ -5,7 +5,8 @@ ch. 4.3, 4.4, table 4.14; Nottingham test, Lim 2004).
 This module owns the analysis of a kind "oedometer" result (layout in `analysis.schema`:
 ``platen_force`` [N, the ballast on the platen, up], ``platen_load`` [N, the program],
 ``platen_displacement`` [m, down, zero when loading starts]) and writes ``oedometer.png``
-(force–displacement with the unloading branch enlarged, as the thesis's figures),
+(force–displacement with the unloading branch enlarged, as the thesis's figures, and the
+largest overlap over the smaller radius, ``max_overlap_ratio`` [-], where recorded),
 ``oedometer.txt``, ``oedometer.json`` and, with ``/fragments``, the grading of
 `analysis.grading` (``grading.png``, ``grading.txt``, ``grading.json``).
 
@@ -53,6 +54,7 @@ class OedometerResult:
     loading_stiffness: float     # [N/m]
     unloading_stiffness: float   # [N/m]
     n_samples: int
+    max_overlap_ratio: float | None = None  # largest overlap / smaller radius of the run [-], if recorded
 
 
 def read_oedometer(path):
@@ -81,7 +83,8 @@ def analyse(series, window=LOADING_WINDOW, fraction=UNLOADING_FRACTION) -> Oedom
     return OedometerResult(
         f_max=float(f.max()), load_max=float(load.max()), u_max=float(u.max()), u_end=float(u[-1]),
         loading_stiffness=loading_stiffness(f, u, window, peak=peak), unloading_stiffness=k_unload,
-        n_samples=len(f))
+        n_samples=len(f),
+        max_overlap_ratio=float(np.max(series["max_overlap_ratio"])) if "max_overlap_ratio" in series else None)
 
 
 def identify_modulus(moduli, stiffnesses, target):
@@ -117,7 +120,8 @@ def result_lines(r: OedometerResult) -> list[str]:
         f"(window {LOADING_WINDOW[0]:g}-{LOADING_WINDOW[1]:g} of the loading branch)",
         f"  unloading stiffness {r.unloading_stiffness * KN / MM:.5g} kN/mm "
         f"(first {UNLOADING_FRACTION:g} of the force drop)",
-    ]
+    ] + ([] if r.max_overlap_ratio is None else
+         [f"  largest overlap {r.max_overlap_ratio:.3g} of the smaller radius of its pair"])
 
 
 def plot_oedometer(series, r: OedometerResult, path) -> Path:
@@ -138,6 +142,11 @@ def plot_oedometer(series, r: OedometerResult, path) -> Path:
                  f"k_unload {r.unloading_stiffness * KN / MM:.4g} kN/mm")
     ax.grid(True, alpha=0.3)
     ax.legend(loc="lower right", fontsize="small")
+    if "max_overlap_ratio" in series:  # how far the contacts were pushed (0.5 stops a run)
+        ov = ax.twinx()
+        ov.plot(u * MM, np.asarray(series["max_overlap_ratio"]), lw=0.6, color="0.55")
+        ov.set_ylabel("largest overlap / smaller radius [-] (grey)", color="0.4")
+        ov.set_ylim(bottom=0.0)
     ins = ax.inset_axes([0.1, 0.5, 0.38, 0.38])
     ins.plot((u[peak:] - u[peak]) * MM, f[peak:] * KN)
     ins.set_title("unloading (u - u_peak [mm], F [kN])", fontsize="x-small")

@@ -72,3 +72,13 @@ def test_command_line_on_a_synthetic_file(tmp_path, capsys):
     assert not (tmp_path / "a" / "grading.txt").exists()  # no /fragments: no grading
     assert main(["oedometer", str(tmp_path / "missing.h5")]) == 2
     assert math.isfinite(analyse(record(n=9)).unloading_stiffness)  # a sparse record: two samples at least
+    assert "largest overlap" not in text  # not recorded
+
+
+def test_largest_overlap_is_reported_when_recorded(tmp_path):
+    rec = record()
+    rec["max_overlap_ratio"] = (0.2 * rec["platen_force"] / rec["platen_force"].max(), "-")
+    attrs = {"kind": "oedometer", "scene": "{}", "pdem_version": "test"}
+    path = write_results(tmp_path / "results.h5", rec, None, attrs)
+    assert main(["oedometer", str(path), "--out", str(tmp_path / "a")]) == 0
+    assert "largest overlap 0.2 of the smaller radius" in (tmp_path / "a" / "oedometer.txt").read_text()

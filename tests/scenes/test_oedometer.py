@@ -188,3 +188,26 @@ def test_the_scaled_thesis_size_job_is_the_thesis_job_scaled():
     assert {k: v for k, v in c.items() if k not in scaled_keys} == {k: v for k, v in t.items() if k not in scaled_keys}
     for doc in (thesis, scaled):
         assert oedometer.settings(doc)["grain"]["breakable"]
+
+
+def test_the_small_member_job_is_the_scaled_job_with_the_spheres_of_table_4_15():
+    """jobs/oedometer_breakable_scaled_small_members.toml is the scaled job with only the grain
+    changed: the Ø48 mm grain filled with spheres of diameter 3.6 mm (thesis table 4.15) on the
+    grid, "135 and more" of them; each bond a quarter of eq. 4.3's a_N (c r² with r = d/2)."""
+    import tomllib
+
+    jobs = CI_JOB.parent
+    scaled, small = (tomllib.loads((jobs / f"oedometer_breakable_scaled{suffix}.toml").read_text())
+                     for suffix in ("", "_small_members"))
+    grain = small["oedometer"].pop("clumps")
+    assert scaled["oedometer"].pop("clumps") == {"shape": "nottingham", "breakable": True}
+    assert small == scaled
+    assert grain == {"shape": "ellipsoid", "radii": [0.024] * 3, "member_radius": 0.0036 / 2, "breakable": True}
+    built = oedometer.settings(tomllib.loads((jobs / "oedometer_breakable_scaled_small_members.toml").read_text()))
+    members = built["grain"]["members"]
+    assert len(members) >= 135
+    assert np.max(np.linalg.norm(members, axis=1)) + 0.0018 <= 0.024 * (1 + 1e-12)
+    s, a_n = 1e-2, 2.1e3  # the scale, the Nottingham bond strength of eq. 4.3 [N]
+    c = small["materials"]["ballast"]["normal_cohesion"]
+    assert c * 0.0036**2 == pytest.approx(s * a_n, rel=1e-3)
+    assert c * 0.0018**2 == pytest.approx(s * a_n / 4, rel=1e-3)
