@@ -147,6 +147,8 @@ def plot_oedometer(series, r: OedometerResult, path) -> Path:
         ov.plot(u * MM, np.asarray(series["max_overlap_ratio"]), lw=0.6, color="0.55")
         ov.set_ylabel("largest overlap / smaller radius [-] (grey)", color="0.4")
         ov.set_ylim(bottom=0.0)
+        ax.set_zorder(ov.get_zorder() + 1)  # the force curves and the inset above the grey line
+        ax.patch.set_visible(False)
     ins = ax.inset_axes([0.1, 0.5, 0.38, 0.38])
     ins.plot((u[peak:] - u[peak]) * MM, f[peak:] * KN)
     ins.set_title("unloading (u - u_peak [mm], F [kN])", fontsize="x-small")
