@@ -8,6 +8,10 @@ one, and their table, JSON and PNG (``grading.txt``, ``grading.json``, ``grading
 indices are defined in ``docs/breakage_indices.md``; in short, with f_i the mass fraction of
 fragment i, d its size and P(x) the mass fraction passing x:
 
+- by number: the thesis's text (4.5) counts fragments ("90 % of all clumps consist of 135 and
+  more spheres", "the number of clumps of 135 and more spheres fell to ca. 15 %", "about 30 %
+  single spheres") while its figure 4.25 is labelled by mass; both are reported:
+  ``count_single`` and ``count_large`` are fractions of the number of fragments.
 - size: number of member spheres n [-], or the equivalent sieve diameter
   d = (6 m / (pi rho))^(1/3) [m] (the sphere of the fragment's mass). The smallest possible
   fragment is one sphere of the smallest member radius: d_min = 2 r_min.
@@ -176,7 +180,9 @@ class RecordSummary:
     label, step [-], time [s], n_fragments [-], mass [kg] (total), fraction_single [-] (mass in
     single spheres), fraction_large [-] (mass in fragments of >= `intact_members` spheres),
     fraction_intact [-] (mass in clumps still in one piece; NaN without clump ids), d50 [m]
-    (sieve diameter passed by half the mass), d_max [m] (largest fragment).
+    (sieve diameter passed by half the mass), d_max [m] (largest fragment); count_single and
+    count_large [-]: fractions of the number of fragments that are single spheres and that have
+    >= `intact_members` spheres (the thesis's text counts fragments).
     """
 
     label: str
@@ -189,6 +195,8 @@ class RecordSummary:
     fraction_intact: float
     d50: float
     d_max: float
+    count_single: float
+    count_large: float
 
 
 @dataclass(frozen=True)
@@ -261,7 +269,8 @@ def summarise(record: FragmentRecord, density: float,
         fraction_single=float(m[n == 1].sum() / total),
         fraction_large=float(m[n >= intact_members].sum() / total),
         fraction_intact=intact, d50=float(x[np.searchsorted(p, 0.5 - TOL)]),
-        d_max=float(d.max()))
+        d_max=float(d.max()), count_single=float(np.mean(n == 1)),
+        count_large=float(np.mean(n >= intact_members)))
 
 
 def breakage(reference: FragmentRecord, record: FragmentRecord, density: float, d_min: float,
@@ -349,15 +358,17 @@ def grading_lines(result: GradingAnalysis) -> list[str]:
         "",
         f"{'record':>16} {'step':>12} {'time':>10} {'fragments':>10} {'mass':>10} "
         f"{'single':>8} {f'n>={result.intact_members}':>8} {'intact':>8} {'d50':>8} "
-        f"{'d_max':>8}",
+        f"{'d_max':>8} {'single':>8} {f'n>={result.intact_members}':>8}",
         f"{'':>16} {'[-]':>12} {'[s]':>10} {'[-]':>10} {'[kg]':>10} {'[%]':>8} {'[%]':>8} "
-        f"{'[%]':>8} {'[mm]':>8} {'[mm]':>8}",
+        f"{'[%]':>8} {'[mm]':>8} {'[mm]':>8} {'[%#]':>8} {'[%#]':>8}",
     ]
     for s in result.summaries:
         lines.append(f"{s.label:>16} {s.step:>12d} {s.time:>10.4g} {s.n_fragments:>10d} "
                      f"{s.mass:>10.4g} {s.fraction_single * PERCENT:>8.2f} "
                      f"{s.fraction_large * PERCENT:>8.2f} {_pct(s.fraction_intact):>8} "
-                     f"{s.d50 * MM:>8.3f} {s.d_max * MM:>8.3f}")
+                     f"{s.d50 * MM:>8.3f} {s.d_max * MM:>8.3f} {s.count_single * PERCENT:>8.2f} "
+                     f"{s.count_large * PERCENT:>8.2f}")
+    lines.append("  [%] of the mass; [%#] of the number of fragments (the thesis's text counts fragments)")
     lines += ["", f"breakage indices against {result.reference!r} (docs/breakage_indices.md): "
                   "Marsal B_g by member count and by sieve; Hardin B_p (current), B_t, B_r "
                   "(cut-off d_min); Indraratna BBI = A/(A+B) (boundary: all single spheres)"]

@@ -23,6 +23,7 @@ import numpy as np
 from . import checkpoint_state, diagnostics, integrator, neighbors, timestep
 from .clumps import Clumps
 from .contact.kinds import box_kinds, make_kinds
+from .errors import InputError
 from .guard import Guard
 from .state import DOF_ALL, FIELDS
 
@@ -331,6 +332,18 @@ class Simulation:
             mi = p.material[c.i[: c.n]]
             mj = p.material[c.j[: c.n]] if kind.boundary is None else kind.boundary.material[c.j[: c.n]]
             law.set_friction(c.n, mi, mj, self.props, c.params)
+
+    def scale_bond_strength(self, factor):
+        """The normal and shear strengths (a_N, a_T) of every bond held on this rank times
+        ``factor`` [-] (laws with bonds, `pdem.contact.cohesive.scale_bonds`): thesis 4.5 raises
+        them tenfold while its grains shed their initial overlaps and then returns them."""
+        scale = getattr(self.law, "scale_bonds", None)
+        if scale is None:
+            raise InputError(f"bond strength scaled by {factor!r}: the law {self.law.NAME!r} has no bonds "
+                             "(simulation.law = \"cohesive\" has)")
+        for kind in self.kinds:
+            if kind.sphere_pair:
+                scale(kind.contacts.n, kind.contacts.history, factor)
 
     def set_stiffness_scale(self, factor, rescale_existing=None):
         """The law's stiffness keys (`STIFFNESS_KEYS`) of every material times ``factor`` [-] for

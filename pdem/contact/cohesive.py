@@ -27,6 +27,7 @@ tension), the normal and shear adhesions (0: no bond) and the reference overlap 
   cap max(0, Fn tan φ)), Fs scaled to the cap and, under tension, the normal force is 0 this
   step. f = −Fn n − Fs on body 1, at the contact point: torques (cp − x1) × f and −(cp − x2) × f
   (`CONTACT_POINT_LEVER`).
+- `scale_bonds`: every bond's a_N, a_T times a factor (a preparation step, not Yade's law).
 - Stiffness for the time step: kn, ks. Elastic energy: ½ kn (pen − u_p)² + ½ |Fs|²/ks.
 """
 from math import sqrt, tan
@@ -190,6 +191,15 @@ def bond_rows(props, mat1, mat2, r1, r2, pen, stress_free):
                np.asarray(r1, np.float64), np.asarray(r2, np.float64), np.asarray(pen, np.float64),
                bool(stress_free), params, history)
     return params, history
+
+
+def scale_bonds(n, history, factor):
+    """a_N and a_T of the bonds among the first ``n`` contacts times ``factor`` [-] (a broken bond
+    keeps 0): the thesis's preparation (4.5) holds its grains with a tenfold adhesion while the
+    initial overlaps push the members apart, then returns it (factor 10, then 1/10; the round
+    trip is within one ulp of the strength)."""
+    history[:n, ADH_N] *= factor
+    history[:n, ADH_T] *= factor
 
 
 def bond_strengths(props, mat):

@@ -14,7 +14,12 @@ pipeline's keys in `pdem.driver.preparation.PREPARATION_DEFAULTS`) runs the stag
 
 1. ``pour``     fill: a seeded cloud of grains on a cubic lattice inside the cylinder and collar,
                 bottom up until its solid volume is ``overfill`` × ``packing_fraction`` × the
-                cylinder's volume; settle under gravity.
+                cylinder's volume; settle under gravity. Breakable grains' bonds are held at
+                ``bond_boost`` × their strengths for the first ``bond_boost_time`` [s] of the pour,
+                then returned (thesis 4.5: bonds made on overlaps, as Yade makes them with
+                ``stress_free = false``, push the members apart and would break; the thesis
+                raised the cohesion tenfold for the first steps). A warning line names bonds
+                whose push k_n δ exceeds their strength a_N and the boost (`bond_push`).
 2. ``refill``   cut: remove every grain of which a sphere reaches above ``height`` (whole
                 clumps), remove the collar, place the platen on the cut; settle.
 3. ``vibrate``  optional (``vibration_time`` > 0): shake with friction lowered (the pipeline's
@@ -46,6 +51,7 @@ from math import cos, pi
 import numpy as np
 from analysis.schema import OEDOMETER_SERIES
 
+from ..bonds import touching_pairs
 from ..config import CLUMP_KEYS, check_keys, grain_shape, run_settings, scene_from_dict
 from ..driver import observables
 from ..driver.fragments import FragmentRecorder
@@ -72,6 +78,8 @@ DEFAULTS = {
     "f_min": 250.0, "f_max": 1.5e6,     # [N]
     "load_time": 0.2,                   # duration of the 250 N → F_max → 250 N program [s]
     "lattice_gap": 0.05,                # gap between neighbouring grains of the poured lattice [-]
+    "bond_boost": 1.0,                  # bond strengths × this from the start of the pour ... [-]
+    "bond_boost_time": 0.0,             # ... for this long [s], then returned (thesis 4.5: tenfold)
 }
 GRAIN_KEYS = CLUMP_KEYS - {"material", "box_lo", "box_hi", "count", "seed", "vel"}
 TOP = {"simulation", "run", "materials", "oedometer"}
@@ -100,7 +108,23 @@ def settings(doc):
         raise InputError("run.steps: not used by an oedometer (its stages end on settle_ratio, vibration_time and "
                          "load_time in [oedometer]); remove it")
     c["grain"] = grain_spec(doc, c)
+    check_bond_boost(c)
     return c
+
+
+def check_bond_boost(c):
+    """bond_boost > 0 [-] (not 1 only for breakable grains) held for bond_boost_time > 0 [s]."""
+    c["bond_boost"] = number("oedometer.bond_boost", c["bond_boost"], 0.0, lo_open=True, allow="a factor > 0 [-]")
+    c["bond_boost_time"] = number("oedometer.bond_boost_time", c["bond_boost_time"], 0.0,
+                                  allow="a time >= 0 [s]")
+    if c["bond_boost"] == 1.0:
+        return
+    if c["grain"] is None or not c["grain"]["breakable"]:
+        raise InputError(f"oedometer.bond_boost = {c['bond_boost']!r}: scales bonds, which only breakable grains "
+                         "have ([oedometer.clumps] breakable = true); remove it or set it to 1")
+    if c["bond_boost_time"] <= 0.0:
+        raise InputError(f"oedometer.bond_boost_time = {c['bond_boost_time']!r}: must be > 0 [s] with "
+                         f"bond_boost = {c['bond_boost']!r} (how long the pour holds the bonds scaled)")
 
 
 def grain_spec(doc, c):
@@ -119,6 +143,21 @@ def grain_spec(doc, c):
         raise InputError(f"{label}.breakable = true: bonds need simulation.law = \"cohesive\", got {law!r}")
     g["members"], g["member_radii"] = pos, radius
     return g
+
+
+def bond_push(doc, c):
+    """Largest k_n δ / a_N [-] over a grain's bonds made on their overlap δ as Yade makes them
+    (``stress_free = false``): released, such a bond swings to a pull of about that much and
+    breaks above 1 (thesis 4.5); 0 for stress-free bonds or unbreakable grains."""
+    g = c["grain"]
+    if g is None or not g["breakable"] or g["stress_free"]:
+        return 0.0
+    m = doc["materials"][c["ballast_material"]]
+    pos, r = g["members"], g["member_radii"]
+    i, j = touching_pairs("oedometer.clumps", pos, r)
+    pen = r[i] + r[j] - np.linalg.norm(pos[j] - pos[i], axis=1)
+    kn = 2.0 * m["young"] * r[i] * r[j] / (r[i] + r[j])  # Yade's k_n of one material
+    return float(np.max(kn * pen / (m["normal_cohesion"] * np.minimum(r[i], r[j]) ** 2)))
 
 
 def intact_members(c):
@@ -288,7 +327,8 @@ class OedometerRun(PreparedRun):
         super().__init__(path, doc, out_dir, comm, fresh)
 
     def initial_state(self):
-        return {"load_start": None, "reference": None, "peak_recorded": False, "collar_top": None}
+        return {"load_start": None, "reference": None, "peak_recorded": False, "collar_top": None,
+                "bond_boost_on": False}
 
     @property
     def breakable(self):
@@ -313,6 +353,11 @@ class OedometerRun(PreparedRun):
     # ------------------------------------------------------------------ preparation
     def pour(self, tables):
         tables, note = self.pour_grains()
+        push = bond_push(self.doc, self.c)
+        if push > max(1.0, self.c["bond_boost"]):
+            self.loop.log(f"warning: the grains' bonds are made on overlaps that push with up to {push:.3g} a_N "
+                          "(oedometer.clumps.stress_free = false); released they swing to about that pull and break "
+                          "unless oedometer.bond_boost holds them (thesis 4.5: tenfold)")
         p = tables["particles"]
         self.state["collar_top"] = 1.05 * float(np.max(p["pos"][:, 2] + p["radius"]))
         return tables, note + f", collar up to {self.state['collar_top']:.4f} m"
@@ -331,6 +376,35 @@ class OedometerRun(PreparedRun):
         tables = append_tables(empty_tables(), new)
         kind = "breakable" if g["breakable"] else "rigid"
         return tables, f"poured {len(grains)} {kind} clumps of {len(g['member_radii'])} spheres"
+
+    def prepare(self, stage, sim, scene, mid_stage):
+        super().prepare(stage, sim, scene, mid_stage)
+        c = self.c
+        if stage == "pour" and not mid_stage and c["bond_boost"] != 1.0:
+            sim.scale_bond_strength(c["bond_boost"])
+            self.state["bond_boost_on"] = True
+            self.loop.log(f"bond strengths x {c['bond_boost']:g} until t = {c['bond_boost_time']:g} s "
+                          "(oedometer.bond_boost)")
+
+    def end_bond_boost(self, sim):
+        """Return the bonds to their strength (thesis 4.5: "which we then return to its value")."""
+        if self.state["bond_boost_on"]:
+            sim.scale_bond_strength(1.0 / self.c["bond_boost"])
+            self.state["bond_boost_on"] = False
+            self.loop.log(f"bond strengths returned at t = {sim.time:.4g} s, step {sim.step}")
+
+    def program(self, stage, sim, scene):
+        on_step, until, every, t_end = super().program(stage, sim, scene)
+        if stage != "pour" or not self.state["bond_boost_on"]:
+            return on_step, until, every, t_end
+        t_back = self.state["stage_t0"] + self.c["bond_boost_time"]
+
+        def boosted_step(sim):
+            if self.state["bond_boost_on"] and sim.time >= t_back:
+                self.end_bond_boost(sim)
+            on_step(sim)
+
+        return boosted_step, until, every, t_end
 
     def refill(self, tables):
         h = self.c["height"]
@@ -359,6 +433,8 @@ class OedometerRun(PreparedRun):
         return "" if sim.boxes is None else f", platen bottom {sim.boxes.center[0, 2] - sim.boxes.half[0, 2]:.4f} m"
 
     def after_stage(self, stage, sim):
+        if stage == "pour":  # a pour shorter than bond_boost_time
+            self.end_bond_boost(sim)
         if self.fragments is not None:
             label = {"refill": "initial", "load": "unloaded"}.get(stage)
             if stage == "vibrate" and self.c["vibration_time"] > 0:

@@ -129,6 +129,8 @@ def test_quarter_singles_quarter_pairs(staged):
     assert (s.fraction_single, s.fraction_large, s.fraction_intact) == pytest.approx(
         (0.25, 0.5, 0.5))
     assert s.n_fragments == 35
+    # by number of fragments (the thesis's text): 20 single spheres and 5 whole clumps of 35
+    assert (s.count_single, s.count_large) == pytest.approx((20 / 35, 5 / 35), rel=1e-15)
 
 
 def test_reference_and_threshold_options(staged):
@@ -192,6 +194,10 @@ def test_cli_writes_png_table_json(staged, tmp_path, capsys):
     import json
     js = json.loads((out / "grading.json").read_text())
     assert js["records"][3]["fraction_single"] == pytest.approx(0.25)
+    assert js["records"][3]["count_single"] == pytest.approx(20 / 35)
+    row = next(line.split() for line in text.splitlines()
+               if line.split()[:1] == ["unloaded"] and len(line.split()) == 12)
+    assert (float(row[10]), float(row[11])) == pytest.approx((100 * 20 / 35, 100 * 5 / 35), abs=0.01)
     assert js["curves"]["peak"]["passing_n"] == pytest.approx([0.5, 1.0])
     assert js["records"][0]["fraction_intact"] == 1.0
     printed = capsys.readouterr().out.split()

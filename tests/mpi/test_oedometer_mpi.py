@@ -4,7 +4,10 @@ N ranks: the same bits (SPEC 3).
 Run by `make test` under ``mpiexec -n 2`` and ``-n 3`` (serially: the run against a second
 serial run, i.e. determinism). Rank 0 runs the scene alone (`SerialComm`), then every rank runs
 it together; the load series, the preparation series, the fragment records and the final bodies
-and platen must be identical bit for bit (`oedometer_util.run_differences`)."""
+and platen must be identical bit for bit (`oedometer_util.run_differences`). Twice: the CI grains
+(stress-free bonds), and grains bonded on overlaps held by the pour's tenfold bond strength
+(``bond_boost``, scaled on every rank's copy of a bond) and returned mid-pour."""
+import pytest
 import sys
 from pathlib import Path
 
@@ -22,8 +25,12 @@ def run_scene(doc, path, out, comm):
     assert status == 0
 
 
-def test_oedometer_rank_invariance(comm, mpi_tmp_path):
+@pytest.mark.parametrize("boost", [False, True])
+def test_oedometer_rank_invariance(comm, mpi_tmp_path, boost):
     doc = ci_doc(**SHORT)
+    if boost:
+        doc["oedometer"].update(bond_boost=10.0, bond_boost_time=0.01)
+        doc["oedometer"]["clumps"].update(member_spacing=0.0057, stress_free=False)
     doc["simulation"]["slab_axis"] = "x"
     scene = mpi_tmp_path / "scene.toml"
     if comm.rank == 0:

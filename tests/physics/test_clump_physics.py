@@ -164,18 +164,22 @@ def test_stress_free_bond_carries_nothing_where_made():
     assert sim.particles.force[1] @ bond_state(sim)["normal"] > 0.0  # Yade's bond: the overlap pushes
 
 
-def released_overlap(kn_delta_over_an, steps=400):
+def released_pair(kn_delta_over_an, damping=0.0):
     """Two free equal spheres (r 5 mm) bonded on an overlap δ with k_n δ = ``kn_delta_over_an`` a_N,
-    not stress free, no damping, no gravity; (δ, k_n, a_N, tensions of every step [N])."""
+    not stress free, no gravity, Cundall damping ``damping``; (sim, δ, k_n, a_N)."""
     r, young, cohesion = 0.005, 1e8, 2e5
     kn, a_n = young * r, cohesion * r * r  # Yade: k_n = 2 E r1 r2 / (r1 + r2) = E r; a_N = c_N r²
     delta = kn_delta_over_an * a_n / kn
-    sc = Scene(dt=1e-6, damping=0.0, gravity=(0.0, 0.0, 0.0), law="cohesive", allow_initial_overlap=True)
+    sc = Scene(dt=1e-6, damping=damping, gravity=(0.0, 0.0, 0.0), law="cohesive", allow_initial_overlap=True)
     m = sc.material(density=2600.0, young=young, poisson=0.3, friction_angle=0.5, normal_cohesion=cohesion,
                     shear_cohesion=cohesion)
     sc.add_spheres([(0.0, 0.0, 0.0), (2 * r - delta, 0.0, 0.0)], r, m)
     sc.add_bonds([[0, 1]], stress_free=False)
-    sim = sc.build()
+    return sc.build(), delta, kn, a_n
+
+
+def bond_tensions(sim, steps):
+    """The bond's tension [N] after each of up to ``steps`` steps, until it breaks."""
     tensions = []
     for _ in range(steps):
         sim.run(1)
@@ -183,7 +187,13 @@ def released_overlap(kn_delta_over_an, steps=400):
         if s is None or s["normal_adhesion"] == 0.0:
             break
         tensions.append(-(s["normal_force"] @ s["normal"]))
-    return delta, kn, a_n, np.array(tensions)
+    return np.array(tensions)
+
+
+def released_overlap(kn_delta_over_an, steps=400):
+    """`released_pair` undamped: (δ, k_n, a_N, tensions of every step [N])."""
+    sim, delta, kn, a_n = released_pair(kn_delta_over_an)
+    return delta, kn, a_n, bond_tensions(sim, steps)
 
 
 def test_bond_made_on_an_overlap_swings_to_the_same_tension():
@@ -196,6 +206,26 @@ def test_bond_made_on_an_overlap_swings_to_the_same_tension():
     _, _, a_n, tension = released_overlap(1.1)
     assert len(tension) < 400 and tension.max() <= a_n  # broke on the first swing, before exceeding a_N
     assert tension.max() > 0.98 * a_n  # within one step (1.2 % of a_N here) of breaking
+
+
+def test_tenfold_bond_strength_holds_the_swing_of_an_overlap_then_returns():
+    """The thesis's preparation (4.5): a bond made on an overlap pushing with 5 a_N swings to a
+    5 a_N pull and breaks (test above); held at 10 a_N (`scale_bond_strength(10)`) it survives
+    while Cundall damping 0.3 calms the pair, and returned (× 1/10) to a_N it holds at rest."""
+    sim, _, _, a_n = released_pair(5.0, damping=0.3)
+    sim.scale_bond_strength(10.0)
+    assert bond_state(sim)["normal_adhesion"] == pytest.approx(10.0 * a_n, rel=1e-15)
+    boosted = bond_tensions(sim, 2000)
+    assert len(boosted) == 2000 and boosted.max() > 2.0 * a_n  # pulled past a_N, held by 10 a_N
+    assert np.abs(boosted[-200:]).max() < 0.1 * a_n  # calmed below a tenth of a_N
+    sim.scale_bond_strength(0.1)
+    s = bond_state(sim)
+    assert s["normal_adhesion"] == pytest.approx(a_n, rel=1e-15) and s["shear_adhesion"] > 0.0
+    assert len(bond_tensions(sim, 400)) == 400  # holds
+    undamped, _, _, _ = released_pair(5.0)
+    undamped.scale_bond_strength(10.0)
+    undamped.scale_bond_strength(0.1)  # returned before it calms: the first swing breaks it
+    assert len(bond_tensions(undamped, 400)) < 400
 
 
 def test_bond_breaks_in_tension_at_normal_adhesion():

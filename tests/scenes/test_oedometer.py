@@ -38,6 +38,9 @@ from pdem_cli import run_pdem
     ({"clumps": {"shape": "nottingham", "breakable": "yes"}}, "oedometer.clumps.breakable"),
     ({"radius_spread": 1.0}, "oedometer.radius_spread"),
     ({"clumps": {"shape": "nottingham", "mass_model": "exact"}}, "oedometer.clumps.mass_model"),
+    ({"bond_boost": 0.0, "bond_boost_time": 0.01}, "oedometer.bond_boost"),
+    ({"bond_boost": 10.0}, "oedometer.bond_boost_time"),
+    ({"bond_boost": 10.0, "bond_boost_time": 0.01, "clumps": {"shape": "nottingham"}}, "oedometer.bond_boost"),
 ])
 def test_input_errors_name_the_field(change, field):
     doc = ci_doc(**change)
@@ -156,6 +159,39 @@ def test_resume_after_a_stage_checkpoint(r1, tmp_path):
     assert run_differences(r1, got) == []
 
 
+def test_bond_push_is_the_overlap_force_over_the_normal_strength():
+    """k_n δ / a_N = E r (2r − s) / (c r²) for equal members r a grid spacing s apart."""
+    doc = ci_doc()
+    doc["oedometer"]["clumps"].update(member_spacing=0.0057, stress_free=False)
+    m, r = doc["materials"]["ballast"], 0.003
+    expect = m["young"] * r * (2 * r - 0.0057) / (m["normal_cohesion"] * r * r)
+    assert oedometer.bond_push(doc, oedometer.settings(doc)) == pytest.approx(expect, rel=1e-9)
+    doc["oedometer"]["clumps"]["stress_free"] = True
+    assert oedometer.bond_push(doc, oedometer.settings(doc)) == 0.0
+
+
+@pytest.mark.slow
+def test_bond_boost_holds_grains_made_on_overlaps(tmp_path):
+    """slow (~20 s): the CI oedometer with Yade's loaded bonds made on an overlap that pushes with
+    3.4 a_N (members 5.7 mm apart). Released at once every bond breaks (a warning says so); held
+    at ten times their strength for the first 0.01 s of the pour (thesis 4.5), then returned,
+    every grain is whole after the cut."""
+    runs = {}
+    for boost in (1.0, 10.0):
+        doc = ci_doc(bond_boost=boost, bond_boost_time=0.01)
+        doc["oedometer"]["clumps"].update(member_spacing=0.0057, stress_free=False)
+        scene = tmp_path / f"boost_{boost:g}.toml"
+        scene.write_text(toml_text(doc))
+        r = run_pdem(1, scene, tmp_path / scene.stem)
+        runs[boost] = r.stdout, read_fragments(tmp_path / scene.stem / "results.h5").records[0]
+    n = oedometer.intact_members(oedometer.settings(doc))
+    out, initial = runs[1.0]
+    assert "push with up to 3.43 a_N" in out and initial.label == "initial" and np.all(initial.n_members == 1)
+    out, initial = runs[10.0]
+    assert "bond strengths x 10 until t = 0.01 s" in out and "bond strengths returned at t = 0.01" in out
+    assert "warning: the grains' bonds" not in out and np.all(initial.n_members == n)
+
+
 def test_scene_file_round_trip(tmp_path):
     """The helper's TOML writer keeps the CI scene (the MPI test writes variants with it)."""
     import tomllib
@@ -210,3 +246,26 @@ def test_the_small_member_job_is_the_scaled_job_with_the_spheres_of_table_4_15()
     c = small["materials"]["ballast"]["normal_cohesion"]
     assert c * 0.0036**2 == pytest.approx(s * a_n, rel=1e-3)
     assert c * 0.0018**2 == pytest.approx(s * a_n / 4, rel=1e-3)
+
+
+def test_the_thesis_grain_job_is_the_scaled_job_with_the_grain_and_preparation_of_4_5():
+    """jobs/oedometer_breakable_scaled_thesis_grain.toml is the scaled job with the thesis's grain
+    (r 3.6 mm members on a grid in the Ø48 mm grain, overlapping: 136 of them, "135 and more") bonded
+    as Yade bonds (loaded by the overlap, which pushes with more than a_N, less than 10 a_N) and
+    the tenfold strength of the pour's first steps; nothing else changed."""
+    import tomllib
+
+    jobs = CI_JOB.parent
+    scaled, job = (tomllib.loads((jobs / f"oedometer_breakable_scaled{suffix}.toml").read_text())
+                   for suffix in ("", "_thesis_grain"))
+    oedometer.check(job)
+    c = oedometer.settings(job)
+    assert len(c["grain"]["members"]) == 136
+    assert 1.0 < oedometer.bond_push(job, c) < 10.0 == c["bond_boost"]
+    grain = job["oedometer"].pop("clumps")
+    preparation = {k: job["oedometer"].pop(k) for k in ("bond_boost", "bond_boost_time", "lattice_gap")}
+    assert scaled["oedometer"].pop("clumps") == {"shape": "nottingham", "breakable": True}
+    assert job == scaled
+    assert grain == {"shape": "ellipsoid", "radii": [0.024] * 3, "member_radius": 0.0036, "member_spacing": 0.0067,
+                     "breakable": True, "stress_free": False}
+    assert preparation == {"bond_boost": 10.0, "bond_boost_time": 0.05, "lattice_gap": 0.1}
