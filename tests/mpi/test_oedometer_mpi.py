@@ -7,9 +7,10 @@ it together; the load series, the preparation series, the fragment records and t
 and platen must be identical bit for bit (`oedometer_util.run_differences`). Twice: the CI grains
 (stress-free bonds), and grains bonded on overlaps held by the pour's tenfold bond strength
 (``bond_boost``, scaled on every rank's copy of a bond) and returned mid-pour."""
-import pytest
 import sys
 from pathlib import Path
+
+import pytest
 
 from pdem.parallel.comm import SerialComm
 from pdem.scenes import oedometer
