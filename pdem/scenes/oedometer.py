@@ -152,12 +152,14 @@ def bond_push(doc, c):
     g = c["grain"]
     if g is None or not g["breakable"] or g["stress_free"]:
         return 0.0
-    m = doc["materials"][c["ballast_material"]]
+    scene = base_scene(doc)
     pos, r = g["members"], g["member_radii"]
     i, j = touching_pairs("oedometer.clumps", pos, r)
     pen = r[i] + r[j] - np.linalg.norm(pos[j] - pos[i], axis=1)
-    kn = 2.0 * m["young"] * r[i] * r[j] / (r[i] + r[j])  # Yade's k_n of one material
-    return float(np.max(kn * pen / (m["normal_cohesion"] * np.minimum(r[i], r[j]) ** 2)))
+    mat = np.full(len(i), scene.material_names.index(c["ballast_material"]))
+    params, history = scene.law.bond_rows(scene.materials.props(), mat, mat, r[i], r[j], pen, False)
+    kn, a_n = params[:, scene.law.PARAM_NAMES["kn"]], history[:, scene.law.HISTORY_NAMES["normal_adhesion"]]
+    return float(np.max(kn * pen / a_n))
 
 
 def intact_members(c):
