@@ -10,7 +10,9 @@ generated pair loop (`pdem.contact.loops`); and the numpy-level ``stiffness(para
 overlap) -> (kn, ks)`` (time step), ``elastic_energy(params, history, overlap)`` (energy check),
 ``contact_forces(params, history, overlap, normal) -> (normal force, shear force)`` and
 ``PARAM_NAMES`` (name -> parameter column) for `Simulation.contacts`, and, with a friction key,
-``set_friction(n, mat_i, mat_j, props, params)``.
+``set_friction(n, mat_i, mat_j, props, params)``. ``STIFFNESS_KEYS``: the material keys the
+law's stiffnesses are proportional to (a preparation at reduced stiffness scales them:
+`stiffness_keys`, `Simulation.scale_stiffness`).
 
 Added for the viscous and Hertz–Mindlin laws (issue 12):
 
@@ -32,7 +34,8 @@ Added for the viscous and Hertz–Mindlin laws (issue 12):
 Optional (a law without them behaves as if they were absent/False): ``TENSILE`` and the
 njit-inline ``holds(p, fresh, pen, params, history)`` (real contacts with negative overlap live
 on while ``holds``; see `pdem.contact.loops`), ``CONTACT_POINT_LEVER`` (torques about the
-contact point), ``HISTORY_NAMES`` (name -> history column, also reported by
+contact point), ``STIFFNESS_PARAMS`` (the parameter columns proportional to ``STIFFNESS_KEYS``,
+for `Simulation.scale_stiffness` with ``rescale_existing``), ``HISTORY_NAMES`` (name -> history column, also reported by
 `Simulation.contacts`) and, for laws with bonds, ``bond_rows(props, mat1, mat2, r1, r2, pen,
 stress_free) -> (params, history)``, ``bond_strengths(props, mat) -> (c_N, c_T)`` and
 ``intact(params, history) -> bool mask`` (`pdem.bonds`, `pdem.fragments`).
@@ -49,7 +52,7 @@ LAWS = {"linear": "pdem.contact.linear", "viscous": "pdem.contact.viscous",
         "hertz_mindlin": "pdem.contact.hertz_mindlin", "cohesive": "pdem.contact.cohesive"}
 REQUIRED = ("NAME", "N_PARAMS", "HISTORY", "MOMENT", "MATERIAL_KEYS", "PWAVE_KEY", "FRICTION_KEY", "ip2", "force",
             "stiffness", "elastic_energy", "contact_forces", "PARAM_NAMES", "CONTACT_POINT_VELOCITY", "PAIR_KEYS",
-            "combine", "dt_stiffness", "pwave_modulus")
+            "combine", "dt_stiffness", "pwave_modulus", "STIFFNESS_KEYS")
 
 
 def register_law(module):
@@ -71,3 +74,11 @@ def get_law(name):
     if isinstance(law, str):
         law = LAWS[name] = import_module(law)
     return law
+
+
+def stiffness_keys(law=None):
+    """The material keys a stiffness is proportional to: the ``STIFFNESS_KEYS`` of ``law`` (a name
+    or module), or, without one, their union over every registered law (sorted)."""
+    if law is not None:
+        return tuple(get_law(law).STIFFNESS_KEYS)
+    return tuple(sorted({k for name in list(LAWS) for k in get_law(name).STIFFNESS_KEYS}))

@@ -58,6 +58,7 @@ FN, ADH_N, ADH_T, UNP = 3, 4, 5, 6  # history columns
 HISTORY_NAMES = {"normal_adhesion": ADH_N, "shear_adhesion": ADH_T, "unp": UNP}
 PWAVE_KEY = "young"
 FRICTION_KEY = "friction_angle"
+STIFFNESS_KEYS = ("young",)
 
 
 @njit(inline="always", cache=True)

@@ -58,6 +58,7 @@ PARAM_NAMES = {"young_eff": 0, "shear_eff": 1, "beta": 2, "friction": 3, "rollin
                "mass_eff": 6}
 PWAVE_KEY = "young"
 FRICTION_KEY = "friction"
+STIFFNESS_KEYS = ("young",)  # E* and G* are proportional to E
 SQRT_FIVE_OVER_SIX = 0.91287092917527685576  # LIGGGHTS normal_model_hertz.h
 _NK = len(MATERIAL_KEYS)
 _NPK = len(PAIR_KEYS)

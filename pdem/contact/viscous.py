@@ -60,6 +60,7 @@ PARAM_NAMES = {"kn": 0, "ks": 1, "cn": 2, "friction": 3, "rolling_stiffness": 4,
                "damping_ratio": 6, "r_min": 7}
 PWAVE_KEY = "kn"
 FRICTION_KEY = "friction"
+STIFFNESS_KEYS = ("kn", "ks", "rolling_stiffness")
 _NK = len(MATERIAL_KEYS)
 _NPK = len(PAIR_KEYS)
 

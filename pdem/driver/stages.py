@@ -33,6 +33,7 @@ import numpy as np
 
 from ..version import __version__
 from ..config import run_settings
+from ..contact import stiffness_keys
 from ..errors import InputError
 from ..io.checkpoint import CheckpointError, read_checkpoint
 from ..io.snapshots import SnapshotWriter
@@ -44,13 +45,11 @@ from .runloop import RunLoop, prepare_output, resume_point
 
 
 # ---------------------------------------------------------------------------- table operations
-STIFFNESS_KEYS = ("kn", "ks", "rolling_stiffness", "young")  # material keys of a stiffness, any law
-
-
 def scaled_stiffness(materials, factor):
-    """The scene file's [materials] tables with every stiffness (`STIFFNESS_KEYS`) times ``factor``
-    (a preparation at reduced stiffness)."""
-    return {name: {k: v * factor if k in STIFFNESS_KEYS else v for k, v in m.items()}
+    """The scene file's [materials] tables with every stiffness (any law's `STIFFNESS_KEYS`,
+    `pdem.contact.stiffness_keys`) times ``factor`` (a preparation at reduced stiffness)."""
+    keys = stiffness_keys()
+    return {name: {k: v * factor if k in keys else v for k, v in m.items()}
             for name, m in materials.items()}
 
 

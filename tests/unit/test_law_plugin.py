@@ -53,3 +53,18 @@ def test_a_law_missing_pieces_is_refused():
 
     with pytest.raises(InputError, match="lacks"):
         register_law(types.SimpleNamespace(NAME="broken"))
+
+
+def test_a_law_without_stiffness_keys_is_refused():
+    import types
+
+    import pytest
+
+    from pdem import InputError
+    from pdem.contact import linear, stiffness_keys
+
+    pieces = {k: v for k, v in vars(linear).items() if k != "STIFFNESS_KEYS"}
+    with pytest.raises(InputError, match="lacks STIFFNESS_KEYS"):
+        register_law(types.SimpleNamespace(**pieces))
+    assert stiffness_keys("viscous") == ("kn", "ks", "rolling_stiffness")
+    assert stiffness_keys() == ("kn", "ks", "rolling_stiffness", "young")  # what the driver scales

@@ -6,8 +6,8 @@ import numpy as np
 from numba import njit
 
 from pdem.contact.linear import (  # noqa: F401  (reused as they are)
-    CONTACT_POINT_VELOCITY, PAIR_KEYS, combine, contact_forces, dt_stiffness, elastic_energy, ip2, pwave_modulus,
-    stiffness)
+    CONTACT_POINT_VELOCITY, PAIR_KEYS, STIFFNESS_KEYS, combine, contact_forces, dt_stiffness, elastic_energy, ip2,
+    pwave_modulus, stiffness)
 from pdem.vec import cross3
 
 NAME = "linear_uncapped"
