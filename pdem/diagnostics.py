@@ -4,11 +4,13 @@
   the contacts (kinetic, rotational, gravitational potential −m g·x, elastic from the law, and
   their total synchronised to the positions), as exact global sums; `kinetic_energy` its kinetic
   and rotational part alone (for records written often).
-- `contacts_per_particle`, `max_overlap_ratio`: real contacts per body; the largest overlap over
-  the smaller radius of the pair [-].
+- `contacts_per_particle`, `max_overlap_ratio`, `free_bodies`: real contacts per body; the largest
+  overlap over the smaller radius of the pair, over all ranks [-]; the owned rows that move as
+  bodies of their own (the driver's observables and the guard use these).
 - `check_stability`: stop with `InstabilityError` naming the cause if the state is not finite,
-  an overlap exceeds ``max_overlap_ratio`` of the smaller radius, or the mechanical energy grew
-  without external work (a time step above the critical one).
+  an overlap exceeds ``max_overlap_ratio`` of the smaller radius (`check_overlap`, also the
+  guard's every-step test), or the mechanical energy grew without external work (a time step
+  above the critical one).
 Every reduction goes through the domain's communicator, so results do not depend on the rank
 count. Physics here never knows its rank.
 """
@@ -81,13 +83,21 @@ def kinetic_energy(sim):
     return sim.comm.exact_sum(ke) + sim.comm.exact_sum(kr)
 
 
+def free_bodies(sim):
+    """bool per owned row: the body moves freely (not fully blocked) and is not a rigid clump's
+    member (a clump counts as one body: `pdem.clumps`)."""
+    nl = sim.particles.n_local
+    free = sim.particles.blocked[:nl] != DOF_ALL
+    if sim.clumps is not None:
+        free &= sim.clumps.row_clump[:nl] < 0
+    return free
+
+
 def _kinetic_terms(sim):
     """(free, m, v, ω, I, ½ m v², ½ I ω²) of this rank's free bodies (a clump's members excluded)."""
     p = sim.particles
     nl = p.n_local
-    free = p.blocked[:nl] != DOF_ALL
-    if sim.clumps is not None:  # a rigid clump counts as one body, not as its members
-        free &= sim.clumps.row_clump[:nl] < 0
+    free = free_bodies(sim)
     m = p.mass[:nl][free]
     v = p.vel[:nl][free]
     w = p.angvel[:nl][free]
@@ -107,6 +117,12 @@ def _step_acceleration(a, v, blocked, shift, damping, h):
 
 
 def max_overlap_ratio(sim):
+    """The largest overlap over the smaller radius of its pair, over every contact of every rank
+    [-] (0 without contacts; collective)."""
+    return sim.comm.allreduce_max(_worst_overlap_here(sim)[0])
+
+
+def _worst_overlap_here(sim):
     """(ratio, gid, other): the largest overlap divided by the smaller radius of the pair on this
     rank, the gid of the pair's particle and how the second body is named."""
     p = sim.particles
@@ -134,7 +150,7 @@ def agree(comm, value, text):
 def worst_overlap(sim):
     """"overlap R of the smaller radius between body gid G and X" of the largest overlap over all
     ranks: the same text on every rank (collective)."""
-    ratio, gi, other = max_overlap_ratio(sim)
+    ratio, gi, other = _worst_overlap_here(sim)
     return agree(sim.comm, ratio, f"overlap {ratio:.3g} of the smaller radius between body gid {gi} and {other}")
 
 
@@ -168,17 +184,21 @@ def check_finite(sim):
             "the time step is too large for the stiffness, or an input is not finite")
 
 
+def check_overlap(sim, worst, cause):
+    """Raise `InstabilityError` naming the worst overlap and ``cause`` if ``worst`` (the largest
+    overlap ratio, already reduced over the ranks) exceeds the scene's ``max_overlap_ratio``
+    (collective when it raises)."""
+    if worst > sim.max_overlap_ratio:
+        raise InstabilityError(f"step {sim.step}: {worst_overlap(sim)} exceeds max_overlap_ratio = "
+                               f"{sim.max_overlap_ratio} " + dt_cause(sim, cause))
+
+
 def check_stability(sim):
     """Raise `InstabilityError` (one line: step, cause, body, Δt; the same on every rank) if the
     run has blown up or lost bodies (`pdem.guard.Guard.check_domain`)."""
     check_finite(sim)
     sim.guard.check_domain(sim)
-    ratio, _, _ = max_overlap_ratio(sim)
-    worst = sim.comm.allreduce_max(ratio)
-    if worst > sim.max_overlap_ratio:
-        raise InstabilityError(
-            f"step {sim.step}: {worst_overlap(sim)} exceeds max_overlap_ratio = {sim.max_overlap_ratio} "
-            + dt_cause(sim, "time step too large or load too high for the stiffness"))
+    check_overlap(sim, max_overlap_ratio(sim), "time step too large or load too high for the stiffness")
     if sim.energy_check and not sim.moving_boundaries:
         e = energy(sim)
         scale = e["kinetic"] + e["rotational"] + e["elastic"]

@@ -32,7 +32,7 @@ from numba import njit
 from . import vec
 from .contact import geometry as geometry_module
 from .contact.geometry import CONTACT
-from .diagnostics import agree, check_finite, dt_cause, worst_overlap
+from .diagnostics import agree, check_finite, check_overlap, dt_cause
 from .errors import InstabilityError
 from .kernels import specialize
 
@@ -81,12 +81,8 @@ class Guard:
                 f"step {sim.step}: {what}, more than {STEP_FRACTION} "
                 + dt_cause(sim, f"a contact this fast is crossed before the contact law can stop it (tunnelling): "
                                 f"{cause}; lower dt or the speed"))
-        if overlap_ratio > sim.max_overlap_ratio:
-            raise InstabilityError(f"step {sim.step}: {worst_overlap(sim)} exceeds max_overlap_ratio = "
-                                   f"{sim.max_overlap_ratio} "
-                                   + dt_cause(sim, "numerical instability (the time step exceeds the critical value "
-                                                   "for the contact stiffness) or a load or speed too high for the "
-                                                   "stiffness"))
+        check_overlap(sim, overlap_ratio, "numerical instability (the time step exceeds the critical value for the "
+                                          "contact stiffness) or a load or speed too high for the stiffness")
 
     # ------------------------------------------------------------------ every check_interval steps
     def check_domain(self, sim):

@@ -6,13 +6,13 @@ the rank count (exact sums, max/min reductions).
 - wall forces: total force of the spheres on each wall [N] (exact sums over contacts)
 - top of the bed: max over spheres of z + r [m]
 - the largest overlap of any real contact over the smaller radius of its pair [-]
+  (`pdem.diagnostics.max_overlap_ratio`, the guard's)
 - rigid boxes: force of the spheres on each box [N] (exact sums) and centre [m]; the force on a
   box's bottom face apart from the rest (side friction)
 """
 import numpy as np
 
-from ..diagnostics import max_overlap_ratio as _max_overlap_ratio
-from ..state import DOF_ALL
+from ..diagnostics import free_bodies, max_overlap_ratio  # noqa: F401  (max_overlap_ratio: an observable)
 
 
 def wall_forces(sim):
@@ -26,9 +26,7 @@ def unbalanced_force(sim):
     included) over the mean |contact force| [-]; 1 when there are no contacts."""
     p = sim.particles
     nl = p.n_local
-    free = p.blocked[:nl] != DOF_ALL
-    if sim.clumps is not None:  # a rigid clump is one body: |F + M g| of the clump, not of its members
-        free &= sim.clumps.row_clump[:nl] < 0
+    free = free_bodies(sim)  # a rigid clump is one body: |F + M g| of the clump, not of its members
     net = p.force[:nl][free] + p.mass[:nl][free, None] * sim.gravity
     if sim.clumps is not None:
         net = np.concatenate([net, sim.clumps.net_forces(sim.gravity)])
@@ -49,11 +47,6 @@ def bed_top(sim):
     nl = p.n_local
     local = float(np.max(p.pos[:nl, 2] + p.radius[:nl])) if nl else -np.inf
     return sim.comm.allreduce_max(local)
-
-
-def max_overlap_ratio(sim):
-    """The largest overlap / smaller radius over every contact of every rank [-] (0 without contacts)."""
-    return sim.comm.allreduce_max(_max_overlap_ratio(sim)[0])
 
 
 def box_forces(sim):

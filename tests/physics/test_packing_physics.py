@@ -84,7 +84,7 @@ def test_stiff_auto_dt_stable():
     dts = []
     for _ in range(60):
         sim.run(50)
-        worst = max(worst, diagnostics.max_overlap_ratio(sim)[0])
+        worst = max(worst, diagnostics.max_overlap_ratio(sim))
         contacts = max(
             contacts,
             len(sim.kind("sphere_sphere").contacts.real_rows()) + len(sim.kind("sphere_wall").contacts.real_rows()),
