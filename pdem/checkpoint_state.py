@@ -13,6 +13,9 @@ velocity) and ``boxes`` (index, center, velocity), replicated on every rank; wit
 ``clumps`` (id, pos, vel, angvel, angmom, ori, mass, inertia, aspherical; `pdem.clumps`) and
 ``clump_members`` (gid, clump, relpos), written by the rank that owns each clump. Bonds of
 breakable clumps are contacts (``contacts/sphere_sphere``, the law's history).
+
+The clock (step, time, Δt, rebuild count, energy reference) goes into the meta and back through
+`clock_state` and `restore_clock`, for restarts and for staged runs (`pdem.driver.stages`).
 """
 import numpy as np
 
@@ -25,6 +28,7 @@ from .clumps import (
     extent_of,
 )
 from .state import FIELDS, with_defaults
+from .timestep import update_dt
 
 
 def _boundary_tables(sim):
@@ -66,11 +70,7 @@ def checkpoint_tables(sim):
         tables[CLUMP_TABLE], tables[MEMBER_TABLE] = sim.clumps.table()
         keys[CLUMP_TABLE], keys[MEMBER_TABLE] = ["id"], ["gid"]
     meta = {
-        "step": int(sim.step),
-        "time": float(sim.time),
-        "dt": float(sim.dt),
-        "n_rebuilds": int(sim.n_rebuilds),
-        "energy_reference": None if sim.energy_reference is None else [float(x) for x in sim.energy_reference],
+        **clock_state(sim),
         "moving_boundaries": sim.moving_boundaries,
         "n_bodies": int(sim.comm.allreduce_sum_int(p.n_local)),
         "scene": sim.spec,
@@ -107,13 +107,38 @@ def restore_checkpoint(sim, tables, meta):
                          else "the scene has rigid clumps and the checkpoint has none")
     sim.moving_boundaries = bool(meta.get("moving_boundaries", sim.moving_boundaries))
     load_state(sim, tables)
-    sim.n_rebuilds = int(meta.get("n_rebuilds", sim.n_rebuilds))
-    sim.step = int(meta["step"])
-    sim.time = float(meta["time"])
-    sim.dt = float(meta["dt"])
-    ref = meta.get("energy_reference")
-    sim.energy_reference = None if ref is None else [float(x) for x in ref]
+    restore_clock(sim, meta)
     return sim
+
+
+def clock_state(sim):
+    """The clock of the loop as checkpoint meta holds it: ``step``, ``time`` [s], ``dt`` [s] (the
+    next step's), ``n_rebuilds`` and the energy check's ``energy_reference`` [J] (or None)."""
+    return {
+        "step": int(sim.step),
+        "time": float(sim.time),
+        "dt": float(sim.dt),
+        "n_rebuilds": int(sim.n_rebuilds),
+        "energy_reference": None if sim.energy_reference is None else [float(x) for x in sim.energy_reference],
+    }
+
+
+def restore_clock(sim, meta, continuing=True):
+    """Set the clock of `clock_state` back from checkpoint ``meta`` (after the bodies are
+    loaded): step, time and rebuild count; if ``continuing`` (a restart, a stage resumed inside)
+    also the checkpoint's Δt and energy reference, so the run goes on bit for bit, else (a new
+    stage from the last one's end) a fresh Δt estimate and energy reference. Empty ``meta``: the
+    clock starts at zero."""
+    if meta:
+        sim.step = int(meta["step"])
+        sim.time = float(meta["time"])
+        sim.n_rebuilds = int(meta.get("n_rebuilds", sim.n_rebuilds))
+    if continuing:
+        ref = meta.get("energy_reference")
+        sim.energy_reference = None if ref is None else [float(x) for x in ref]
+        update_dt(sim, carried=meta["dt"])
+    else:
+        update_dt(sim, force=True)
 
 
 def load_state(sim, tables):

@@ -17,6 +17,7 @@ count. Physics here never knows its rank.
 import numpy as np
 
 from .errors import InstabilityError
+from .settings import AUTO
 from .state import DOF_ALL
 
 
@@ -159,7 +160,7 @@ def dt_cause(sim, cause):
     above the step dt = "auto" would take in this state, that is named as the cause instead
     (collective: every rank calls it with the same state and gets the same text)."""
     text = f"(dt = {sim.dt:.3e} s)"
-    if sim.fixed_dt is not None:
+    if sim.settings.dt != AUTO:
         from .timestep import stable_dt
 
         stable = stable_dt(sim)
@@ -199,7 +200,7 @@ def check_stability(sim):
     check_finite(sim)
     sim.guard.check_domain(sim)
     check_overlap(sim, max_overlap_ratio(sim), "time step too large or load too high for the stiffness")
-    if sim.energy_check and not sim.moving_boundaries:
+    if sim.settings.energy_check and not sim.moving_boundaries:
         e = energy(sim)
         scale = e["kinetic"] + e["rotational"] + e["elastic"]
         if sim.energy_reference is None:

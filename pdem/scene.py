@@ -37,6 +37,7 @@ from .errors import InputError
 from .facets import Facets
 from .guard import Guard, check_initial_overlaps
 from .materials import MaterialTable
+from .settings import AUTO, simulation_settings
 from .simulation import Simulation
 from .state import DOF_ALL, FIELDS, Particles, with_defaults
 from .validate import boolean, number, vectors
@@ -65,40 +66,15 @@ def sphere_columns(pos, radius, density, first_gid):
 class Scene:
     """Declare a simulation; `build()` turns it into a `Simulation`."""
 
-    def __init__(self, *, dt="auto", damping=0.0, gravity=(0.0, 0.0, 0.0), skin=None, dt_safety=0.8, dt_interval=100,
+    def __init__(self, *, dt=AUTO, damping=0.0, gravity=(0.0, 0.0, 0.0), skin=None, dt_safety=0.8, dt_interval=100,
                  pwave_factor=0.5, check_interval=100, max_overlap_ratio=0.5, energy_check=True,
                  allow_initial_overlap=False, slab_axis=0, law="linear", domain=None):
         self.law = get_law(law)
-        if dt is not None and dt != "auto":
-            dt = number("dt", dt, 0.0, lo_open=True, allow="'auto' or a number > 0 [s]")
-        self.settings = {
-            "dt": dt,
-            "damping": number("damping", damping, 0.0, 0.99, allow="in [0, 0.99] (Cundall's lambda_D)"),
-            "gravity": vectors("gravity", gravity, 1)[0].tolist(),
-            "skin": None if skin is None else number("skin", skin, 0.0, lo_open=True, allow="a length > 0 [m]"),
-            "dt_safety": number("dt_safety", dt_safety, 0.0, 1.0, lo_open=True, allow="in (0, 1]"),
-            "dt_interval": number("dt_interval", dt_interval, 1, integer=True, allow="an integer >= 1 [steps]"),
-            "pwave_factor": number("pwave_factor", pwave_factor, 0.0, 1.0, lo_open=True, allow="in (0, 1]"),
-            "check_interval": number(
-                "check_interval", check_interval, 1, integer=True, allow="an integer >= 1 [steps]"
-            ),
-            "max_overlap_ratio": number(
-                "max_overlap_ratio", max_overlap_ratio, 0.0, 1.0, lo_open=True, allow="in (0, 1]"
-            ),
-            "energy_check": boolean("energy_check", energy_check),
-            "allow_initial_overlap": boolean("allow_initial_overlap", allow_initial_overlap),
-            "slab_axis": slab_axis,
-            "law": self.law.NAME,
-        }
-        if domain is not None:  # only when declared: the spec (and checkpoints) of other scenes stay as they were
-            box = vectors("domain", domain, 2)
-            if not np.all(box[1] > box[0]):
-                raise InputError(
-                    f"domain = {box.tolist()}: must be [[x, y, z] low, [x, y, z] high] with low < high [m]"
-                )
-            self.settings["domain"] = box.tolist()
-        if slab_axis not in (0, 1, 2) or isinstance(slab_axis, bool):
-            raise InputError(f"slab_axis = {slab_axis!r}: must be 0, 1 or 2 (x, y, z)")
+        self.settings = simulation_settings(
+            dt=dt, damping=damping, gravity=gravity, skin=skin, dt_safety=dt_safety, dt_interval=dt_interval,
+            pwave_factor=pwave_factor, check_interval=check_interval, max_overlap_ratio=max_overlap_ratio,
+            energy_check=energy_check, allow_initial_overlap=allow_initial_overlap, slab_axis=slab_axis,
+            law=self.law.NAME, domain=domain)
         self.materials = MaterialTable(self.law)
         self.walls = Walls()
         self.facets = Facets()
@@ -206,7 +182,7 @@ class Scene:
 
     def empty_like(self):
         """A scene with this one's settings and materials (shared) and no bodies or boundaries."""
-        sc = Scene(**self.settings)
+        sc = Scene(**self.settings.as_dict())
         sc.materials = self.materials
         return sc
 
@@ -220,7 +196,7 @@ class Scene:
         if clumps is not None:
             out["clumps"], out["clump_members"] = clumps, members
         if self._bonds:
-            skin = self.settings["skin"] if self.settings["skin"] is not None else 0.25 * float(np.mean(cols["radius"]))
+            skin = self.settings.skin if self.settings.skin is not None else 0.25 * float(np.mean(cols["radius"]))
             key, params, history = self._bond_rows(cols, skin)
             out["contacts/sphere_sphere"] = {"key": key, "params": params, "history": history}
         return out
@@ -377,7 +353,7 @@ class Scene:
         """JSON-able description of the scene (settings, materials, walls, facets, boxes if any; not
         the spheres)."""
         out = {
-            "settings": self.settings,
+            "settings": self.settings.as_dict(),
             "materials": self.materials.spec(),
             "walls": [dict(axis=int(a), position=float(p), sense=int(s), velocity=v.tolist(), material=int(m))
                       for a, p, s, v, m in zip(self.walls.axis, self.walls.position, self.walls.sense,
@@ -433,12 +409,12 @@ class Scene:
                 check_tables(cols, clumps, members)
             except ValueError as exc:
                 raise InputError(f"clumps: {exc}") from None
-        if not self.settings["allow_initial_overlap"]:
+        if not self.settings.allow_initial_overlap:
             self._check_initial_overlaps(cols)
         else:
             self._check_coincident_centres(cols)
         s = self.settings
-        skin = s["skin"] if s["skin"] is not None else 0.25 * float(np.mean(cols["radius"]))
+        skin = s.skin if s.skin is not None else 0.25 * float(np.mean(cols["radius"]))
         bonds = self._bond_rows(cols, skin) if self._bonds else None
         if domain is None:
             if comm is None:
@@ -450,7 +426,7 @@ class Scene:
             else:
                 from .parallel.slab_domain import SlabDomain
 
-                domain = SlabDomain(comm, axis=s["slab_axis"])
+                domain = SlabDomain(comm, axis=s.slab_axis)
                 domain.check_rank_count(cols, skin)
         particles = Particles(len(cols["gid"]) if domain.comm.size == 1 else 16)
         rigid = None
@@ -461,31 +437,22 @@ class Scene:
             rigid = Clumps(extent_of(members))
             rigid.set_rows(clumps, members)
             rigid.keep(domain.owns(rigid.pos))
-        guard = Guard.for_scene(self.walls, cols["pos"], s.get("domain"))
+        guard = Guard.for_scene(self.walls, cols["pos"], s.domain)
         sim = Simulation(
             particles=particles,
-            law=self.law,
             materials=self.materials,
             walls=self.walls,
             facets=self.facets,
             boxes=copy.deepcopy(self.boxes),
-            gravity=s["gravity"],
-            damping=s["damping"],
-            dt=None if s["dt"] in ("auto", None) else s["dt"],
-            dt_safety=s["dt_safety"],
-            dt_interval=s["dt_interval"],
-            pwave_factor=s["pwave_factor"],
+            settings=s,
             skin=skin,
-            check_interval=s["check_interval"],
-            max_overlap_ratio=s["max_overlap_ratio"],
-            energy_check=s["energy_check"],
             domain=domain,
             spec=json.loads(json.dumps(self.spec())),
             guard=guard,
             clumps=rigid,
             bonds=bonds,
         )
-        if not s["allow_initial_overlap"]:
+        if not s.allow_initial_overlap:
             check_initial_overlaps(sim)
         return sim
 

@@ -22,6 +22,7 @@ import numpy as np
 
 from . import checkpoint_state, diagnostics, integrator, neighbors, timestep
 from .clumps import Clumps
+from .contact import get_law
 from .contact.kinds import box_kinds, make_kinds
 from .errors import InputError
 from .guard import Guard
@@ -51,27 +52,22 @@ class Timers:
 class Simulation:
     """Built by `pdem.scene.Scene.build`; run with `run(n_steps)`."""
 
-    def __init__(self, *, particles, law, materials, walls, facets, boxes, gravity, damping, dt, dt_safety,
-                 dt_interval, pwave_factor, skin, check_interval, max_overlap_ratio, energy_check, domain, spec,
-                 guard=None, clumps=None, bonds=None):
+    def __init__(self, *, particles, materials, walls, facets, boxes, settings, skin, domain, spec, guard=None,
+                 clumps=None, bonds=None):
+        self.settings = settings  # `pdem.settings.SimulationSettings`, as the scene made them
         self.particles = particles
-        self.law = law
+        self.law = get_law(settings.law)
         self.materials = materials
         self.props = materials.props()  # law properties per material (the Ip2 inputs)
         self.walls = walls
         self.facets = facets
         # rigid boxes (pdem.boxes): replicated, integrated from the exact global sum of their contacts
         self.boxes = boxes if len(boxes) else None
-        self.gravity = np.asarray(gravity, np.float64)
-        self.damping = float(damping)
-        self.fixed_dt = dt
-        self.dt_safety = dt_safety
-        self.dt_interval = dt_interval
-        self.pwave_factor = pwave_factor
-        self.skin = skin
-        self.check_interval = check_interval
-        self.max_overlap_ratio = max_overlap_ratio
-        self.energy_check = energy_check
+        # the state a stage may change (shaking, settling, a sleeper pressed in): starts as set
+        self.gravity = np.asarray(settings.gravity, np.float64)
+        self.damping = float(settings.damping)
+        self.max_overlap_ratio = settings.max_overlap_ratio
+        self.skin = skin  # [m]: the setting, or a quarter of the mean radius
         self.domain = domain
         self.comm = domain.comm
         self.spec = spec
@@ -84,7 +80,7 @@ class Simulation:
         self.timers = Timers()
         self.energy_reference = None
         self.last_dt = None  # Δt of the last step taken (sim.dt may already be the next one's) [s]
-        self.kinds = make_kinds(law, walls, facets, boxes)
+        self.kinds = make_kinds(self.law, walls, facets, boxes)
         self.box_kinds = box_kinds(self.kinds)  # the kinds whose forces act on the boxes
         # rigid clumps owned here (pdem.clumps), None in a scene without clumps
         self.clumps = clumps
@@ -199,7 +195,7 @@ class Simulation:
         t0 = timers.add("integration", t0)
         self.domain.update_ghosts(self.particles)
         t0 = timers.add("communication", t0)
-        if self.step % self.check_interval == 0:
+        if self.step % self.settings.check_interval == 0:
             diagnostics.check_stability(self)
         self.update_dt()
         timers.add("other", t0)

@@ -27,6 +27,7 @@ import numpy as np
 from numba import njit
 
 from .clumps import add_member_stiffness
+from .settings import AUTO
 from .state import DOF_ALL
 
 
@@ -114,21 +115,23 @@ def contact_dt(sim):
     return dt
 
 
-def update_dt(sim, force=False):
-    """Set ``sim.dt``: the fixed Δt, or (every ``dt_interval`` steps, or with ``force``) the
-    smaller of safety·Δt_k and Δt_p over all ranks; the P-wave fraction before any contact."""
-    if sim.fixed_dt is not None:
-        sim.dt = sim.fixed_dt
-        return
-    if not force and sim.step % sim.dt_interval:
-        return
-    sim.dt = stable_dt(sim)
+def update_dt(sim, force=False, carried=None):
+    """Set ``sim.dt`` (its one writer): ``carried`` (a checkpoint's Δt, to continue bit for bit),
+    the fixed Δt of ``simulation.dt``, or with dt = `AUTO` (every ``dt_interval`` steps, or with
+    ``force``) the smaller of safety·Δt_k and Δt_p over all ranks; the P-wave fraction before
+    any contact."""
+    if carried is not None:
+        sim.dt = float(carried)
+    elif sim.settings.dt != AUTO:
+        sim.dt = sim.settings.dt
+    elif force or sim.step % sim.settings.dt_interval == 0:
+        sim.dt = stable_dt(sim)
 
 
 def stable_dt(sim):
     """The Δt that dt = "auto" takes in the present state [s] (collective): min(safety·Δt_k, Δt_p),
     or pwave_factor·Δt_p before any contact. Also names how far a fixed Δt is above it when a
-    run with one blows up (`pdem.diagnostics.dt_text`)."""
+    run with one blows up (`pdem.diagnostics.dt_cause`)."""
     p = sim.particles
     k_dt = contact_dt(sim)
     for kind in sim.box_kinds:  # the box's own mass–spring step, from the global sum of its contacts
@@ -139,4 +142,4 @@ def stable_dt(sim):
     pw = sim.comm.allreduce_min(pwave_dt(nl, p.radius, p.mass, young))
     # never above the P-wave step itself: a body whose few contacts allow a long step can
     # gain many more within dt_interval steps (a sphere landing on a bed)
-    return min(sim.dt_safety * k_dt, pw) if np.isfinite(k_dt) else sim.pwave_factor * pw
+    return min(sim.settings.dt_safety * k_dt, pw) if np.isfinite(k_dt) else sim.settings.pwave_factor * pw

@@ -32,6 +32,7 @@ from pathlib import Path
 import numpy as np
 
 from ..version import __version__
+from ..checkpoint_state import restore_clock
 from ..config import run_settings
 from ..contact import stiffness_keys
 from ..errors import InputError
@@ -285,15 +286,7 @@ class StagedRun:
         sim.timers = self.timers
         sim.load_state(tables)
         self.tables = None
-        if meta:
-            sim.step, sim.time = int(meta["step"]), float(meta["time"])
-            sim.n_rebuilds = int(meta.get("n_rebuilds", sim.n_rebuilds))
-        if mid_stage:  # continue exactly: the Δt and energy reference of the checkpoint
-            sim.dt = float(meta["dt"])
-            ref = meta.get("energy_reference")
-            sim.energy_reference = None if ref is None else [float(x) for x in ref]
-        else:
-            sim.update_dt(force=True)
+        restore_clock(sim, meta, continuing=mid_stage)  # mid-stage: the checkpoint's Δt and energy reference
         self.prepare(stage, sim, scene, mid_stage)
         n_total = self.comm.allreduce_sum_int(sim.particles.n_local)
         self.loop.log(f"stage {stage}{' (resumed)' if mid_stage else ''}: {n_total} spheres, t = {sim.time:.4f} s, "

@@ -7,6 +7,7 @@ Independent truths: a sphere at speed v moves v·Δt per step (leapfrog); a line
 stiffness k stops a mass m within v·sqrt(m/k) (so a soft wall lets a fast sphere through: the
 overlap would pass the radius); a 75 % overlap is r − |d| with d the centre's distance.
 """
+import dataclasses
 import math
 
 import numpy as np
@@ -135,7 +136,7 @@ def test_initial_overlap_with_boundaries_refused(boundary, name):
     assert f"overlaps {boundary} {name} by 7.500e-03 m (75 % of its radius)" in msg and "allow_initial_overlap" in msg
     _one_sphere_and(boundary, R).build()
     sc = _one_sphere_and(boundary, 0.25 * R)
-    sc.settings["allow_initial_overlap"] = True
+    sc.settings = dataclasses.replace(sc.settings, allow_initial_overlap=True)
     sc.build()
 
 

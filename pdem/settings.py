@@ -1,0 +1,86 @@
+"""The settings of a simulation (a scene file's ``[simulation]`` table): one frozen record,
+checked and made once by `pdem.scene.Scene`, handed to `pdem.simulation.Simulation`.
+
+- ``dt``: `AUTO` (the stable step re-estimated every ``dt_interval`` steps, `pdem.timestep`) or
+  a fixed Δt > 0 [s]; ``dt_safety`` (0, 1] the safety factor on the stiffness estimate,
+  ``pwave_factor`` (0, 1] the fraction of the P-wave step taken before any contact;
+- ``damping``: Cundall's λ_D in [0, 0.99]; ``gravity`` [m/s²];
+- ``skin`` [m] (None: a quarter of the mean radius) of the neighbour lists;
+- ``check_interval`` [steps] of the blow-up check, ``max_overlap_ratio`` (0, 1] the largest
+  overlap over the smaller radius allowed, ``energy_check`` whether the mechanical energy may
+  not grow, ``allow_initial_overlap`` whether bodies may start overlapping;
+- ``slab_axis`` (0, 1, 2) along which ranks cut the domain; ``law`` the contact law's name;
+  ``domain`` [[x, y, z] low, high] [m] the declared box bodies must stay in, or None.
+
+A running simulation changes its gravity (shaking), damping and overlap limit as its own state
+(`Simulation.gravity`, ...); the settings themselves never change (a different setting is a
+new record: `dataclasses.replace`). `as_dict` is the record as the scene's spec (checkpoints,
+result files) holds it.
+"""
+from dataclasses import dataclass
+
+import numpy as np
+
+from .errors import InputError
+from .validate import boolean, number, vectors
+
+AUTO = "auto"  # dt re-estimated from the stiffnesses present (the one sentinel of dt)
+
+
+@dataclass(frozen=True)
+class SimulationSettings:
+    dt: object
+    damping: float
+    gravity: tuple
+    skin: object
+    dt_safety: float
+    dt_interval: int
+    pwave_factor: float
+    check_interval: int
+    max_overlap_ratio: float
+    energy_check: bool
+    allow_initial_overlap: bool
+    slab_axis: int
+    law: str
+    domain: object = None
+
+    def as_dict(self):
+        """The settings as the scene spec holds them (JSON-able; ``domain`` only when declared)."""
+        out = {name: getattr(self, name) for name in self.__dataclass_fields__ if name != "domain"}
+        out["gravity"] = list(self.gravity)
+        if self.domain is not None:
+            out["domain"] = [list(corner) for corner in self.domain]
+        return out
+
+    def __getitem__(self, key):
+        """The setting called ``key`` as the scene file names it (``settings["damping"]``)."""
+        return self.as_dict()[key]
+
+
+def simulation_settings(*, dt, damping, gravity, skin, dt_safety, dt_interval, pwave_factor, check_interval,
+                        max_overlap_ratio, energy_check, allow_initial_overlap, slab_axis, law, domain):
+    """The checked `SimulationSettings` (`InputError` with one line naming the first bad value)."""
+    if dt != AUTO:
+        dt = number("dt", dt, 0.0, lo_open=True, allow="'auto' or a number > 0 [s]")
+    checked = dict(
+        dt=dt,
+        damping=number("damping", damping, 0.0, 0.99, allow="in [0, 0.99] (Cundall's lambda_D)"),
+        gravity=tuple(vectors("gravity", gravity, 1)[0].tolist()),
+        skin=None if skin is None else number("skin", skin, 0.0, lo_open=True, allow="a length > 0 [m]"),
+        dt_safety=number("dt_safety", dt_safety, 0.0, 1.0, lo_open=True, allow="in (0, 1]"),
+        dt_interval=number("dt_interval", dt_interval, 1, integer=True, allow="an integer >= 1 [steps]"),
+        pwave_factor=number("pwave_factor", pwave_factor, 0.0, 1.0, lo_open=True, allow="in (0, 1]"),
+        check_interval=number("check_interval", check_interval, 1, integer=True, allow="an integer >= 1 [steps]"),
+        max_overlap_ratio=number("max_overlap_ratio", max_overlap_ratio, 0.0, 1.0, lo_open=True, allow="in (0, 1]"),
+        energy_check=boolean("energy_check", energy_check),
+        allow_initial_overlap=boolean("allow_initial_overlap", allow_initial_overlap),
+    )
+    box = None
+    if domain is not None:
+        box = vectors("domain", domain, 2)
+        if not np.all(box[1] > box[0]):
+            raise InputError(f"domain = {box.tolist()}: must be [[x, y, z] low, [x, y, z] high] with low < high [m]")
+        box = tuple(tuple(corner) for corner in box.tolist())
+    if slab_axis not in (0, 1, 2) or isinstance(slab_axis, bool):
+        raise InputError(f"slab_axis = {slab_axis!r}: must be 0, 1 or 2 (x, y, z)")
+    return SimulationSettings(**checked, slab_axis=slab_axis, law=law, domain=box)
