@@ -31,28 +31,15 @@ Values are typed strictly: numbers are numbers (``true`` is not 1), booleans are
                    ("members"|"grid"|"monte_carlo"), discretization, samples, vel [m/s]
 """
 import tomllib
+from dataclasses import fields
 
 from .errors import InputError
 from .generators import loose_cloud
 from .scene import Scene
+from .settings import SimulationSettings
 from .validate import number
 
-SIMULATION_KEYS = {
-    "law",
-    "dt",
-    "damping",
-    "gravity",
-    "skin",
-    "dt_safety",
-    "dt_interval",
-    "pwave_factor",
-    "check_interval",
-    "max_overlap_ratio",
-    "energy_check",
-    "allow_initial_overlap",
-    "slab_axis",
-    "domain",
-}
+SIMULATION_KEYS = {f.name for f in fields(SimulationSettings)}  # the [simulation] table: the settings
 RUN_DEFAULTS = {"steps": 1000, "progress_every": 1000, "output_every": 100, "snapshot_every": 0, "checkpoint_every": 0,
                 "checkpoint_every_s": 0.0, "checkpoint_keep": 3, "kind": "scene", "fragments_every": 0}
 WALL_KEYS = {"axis", "position", "material", "sense", "velocity"}

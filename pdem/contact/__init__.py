@@ -40,6 +40,10 @@ for `Simulation.scale_stiffness` with ``rescale_existing``), ``HISTORY_NAMES`` (
 stress_free) -> (params, history)``, ``bond_strengths(props, mat) -> (c_N, c_T)`` and
 ``intact(params, history) -> bool mask`` (`pdem.bonds`, `pdem.fragments`).
 
+A law may build its ``ip2`` and ``force`` from the shared sub-models of
+`pdem.contact.submodels` (pair stiffness, frictional Ip2, shear spring, Coulomb cap, rolling
+resistance) instead of writing them again.
+
 A new law is its own module plus one line in `LAWS` (or `register_law(module)` at run time, as
 tests/unit/test_law_plugin.py does). Importing this package compiles nothing.
 """

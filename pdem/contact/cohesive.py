@@ -35,8 +35,9 @@ from math import sqrt, tan
 import numpy as np
 from numba import njit
 
-from ..vec import dot3, scgeom_rotate
+from ..vec import dot3
 from . import linear
+from .submodels import frictional_ip2, set_tan_friction, shear_spring
 
 NAME = "cohesive"
 N_PARAMS = 3
@@ -72,14 +73,7 @@ def stiffnesses(e_a, nu_a, phi_a, r_a, e_b, nu_b, phi_b, r_b):
     return kn, ks, tan(min(phi_a, phi_b))
 
 
-@njit(inline="always", cache=True)
-def ip2(props, ma, mb, ra, rb, m1, m2, params, p):
-    """Parameters of a new (unbonded) contact between materials ma (body 1) and mb (body 2)."""
-    kn, ks, tphi = stiffnesses(props[ma, 0], props[ma, 1], props[ma, 2], ra, props[mb, 0], props[mb, 1],
-                               props[mb, 2], rb)
-    params[p, 0] = kn
-    params[p, 1] = ks
-    params[p, 2] = tphi
+ip2 = frictional_ip2(stiffnesses)  # parameters of a new (unbonded) contact between materials ma and mb
 
 
 @njit(inline="always", cache=True)
@@ -100,15 +94,8 @@ def force(p, fresh, nx, ny, nz, pen, vn, six, siy, siz, ox, oy, oz, tx, ty, tz, 
     tphi = params[p, 2]
     fn = kn * (pen - history[p, UNP])
     applied = fn
-    if fresh:
-        fsx = 0.0
-        fsy = 0.0
-        fsz = 0.0
-    else:
-        fsx, fsy, fsz = scgeom_rotate(history[p, 0], history[p, 1], history[p, 2], ox, oy, oz, tx, ty, tz)
-    fsx -= ks * six
-    fsy -= ks * siy
-    fsz -= ks * siz
+    fsx, fsy, fsz = shear_spring(fresh, history[p, 0], history[p, 1], history[p, 2], ox, oy, oz, tx, ty, tz, ks, six,
+                                 siy, siz)
     max_fs = max(0.0, history[p, ADH_T] + fn * tphi)
     fs = sqrt(dot3(fsx, fsy, fsz, fsx, fsy, fsz))
     if fs > max_fs:
@@ -163,11 +150,7 @@ def intact(params, history):
     return (history[:, ADH_N] > 0.0) | (history[:, ADH_T] > 0.0)
 
 
-@njit(cache=True)
-def set_friction(n, mat_i, mat_j, props, params):
-    """params[:n, 2] = tan(min φ) of each contact's two materials."""
-    for k in range(n):
-        params[k, 2] = tan(min(props[mat_i[k], 2], props[mat_j[k], 2]))
+set_friction = set_tan_friction  # params[:n, 2] = tan(min φ) of each contact's two materials, as Ip2
 
 
 @njit(cache=True)

@@ -40,6 +40,7 @@ import numpy as np
 from numba import njit
 
 from ..vec import dot3
+from .submodels import rolling_constant_torque, tangential
 
 NAME = "hertz_mindlin"
 N_PARAMS = 7
@@ -126,10 +127,7 @@ def force(p, fresh, nx, ny, nz, pen, vn, six, siy, siz, ox, oy, oz, tx, ty, tz, 
     xx += six
     xy += siy
     xz += siz
-    rsht = dot3(xx, xy, xz, nx, ny, nz)
-    xx -= rsht * nx
-    xy -= rsht * ny
-    xz -= rsht * nz
+    _, xx, xy, xz = tangential(xx, xy, xz, nx, ny, nz)
     shrmag = sqrt(dot3(xx, xy, xz, xx, xy, xz))
     ftx = kt * xx
     fty = kt * xy
@@ -155,18 +153,8 @@ def force(p, fresh, nx, ny, nz, pen, vn, six, siy, siz, ox, oy, oz, tx, ty, tz, 
     history[p, 1] = xy
     history[p, 2] = xz
     history[p, 3] = fn
-    mx = my = mz = 0.0
-    if rmu > 0.0:
-        wmag = sqrt(dot3(wrx, wry, wrz, wrx, wry, wrz))
-        if wmag > 0.0:
-            s = rmu * kn * pen * reff / wmag
-            mx = wrx * s  # moment on body 1: −μ_r k_n δ R* (ω1 − ω2)/|ω1 − ω2|
-            my = wry * s
-            mz = wrz * s
-            d = dot3(mx, my, mz, nx, ny, nz)
-            mx -= d * nx
-            my -= d * ny
-            mz -= d * nz
+    # moment on body 1: −μ_r k_n δ R* (ω1 − ω2)/|ω1 − ω2|, its normal part removed
+    mx, my, mz = rolling_constant_torque(wrx, wry, wrz, nx, ny, nz, rmu, kn, pen, reff)
     return -fn * nx + ftx, -fn * ny + fty, -fn * nz + ftz, mx, my, mz
 
 

@@ -20,7 +20,8 @@ from math import sqrt, tan
 import numpy as np
 from numba import njit
 
-from ..vec import dot3, scgeom_rotate
+from ..vec import dot3
+from .submodels import frictional_ip2, pair_stiffness, set_tan_friction, shear_spring
 
 NAME = "linear"
 N_PARAMS = 3
@@ -46,21 +47,10 @@ def stiffnesses(e_a, nu_a, phi_a, r_a, e_b, nu_b, phi_b, r_b):
     """kn = 2 E_a R_a E_b R_b/(E_a R_a + E_b R_b), ks the same with E·ν, tan(min φ) (§4)."""
     kna = e_a * r_a
     knb = e_b * r_b
-    ksa = kna * nu_a
-    ksb = knb * nu_b
-    kn = ((2.0 * kna) * knb) / (kna + knb)
-    ks = ((2.0 * ksa) * ksb) / (ksa + ksb) if ksa + ksb != 0.0 else 0.0
-    return kn, ks, tan(min(phi_a, phi_b))
+    return pair_stiffness(kna, knb), pair_stiffness(kna * nu_a, knb * nu_b), tan(min(phi_a, phi_b))
 
 
-@njit(inline="always", cache=True)
-def ip2(props, ma, mb, ra, rb, m1, m2, params, p):
-    """Parameters of a new contact between materials ma (body 1) and mb (body 2)."""
-    kn, ks, tphi = stiffnesses(props[ma, 0], props[ma, 1], props[ma, 2], ra, props[mb, 0], props[mb, 1],
-                               props[mb, 2], rb)
-    params[p, 0] = kn
-    params[p, 1] = ks
-    params[p, 2] = tphi
+ip2 = frictional_ip2(stiffnesses)  # parameters of a new contact between materials ma (body 1) and mb (body 2)
 
 
 @njit(inline="always", cache=True)
@@ -77,15 +67,8 @@ def force(p, fresh, nx, ny, nz, pen, vn, six, siy, siz, ox, oy, oz, tx, ty, tz, 
     fnx = knp * nx
     fny = knp * ny
     fnz = knp * nz
-    if fresh:
-        fsx = 0.0
-        fsy = 0.0
-        fsz = 0.0
-    else:
-        fsx, fsy, fsz = scgeom_rotate(history[p, 0], history[p, 1], history[p, 2], ox, oy, oz, tx, ty, tz)
-    fsx -= ks * six
-    fsy -= ks * siy
-    fsz -= ks * siz
+    fsx, fsy, fsz = shear_spring(fresh, history[p, 0], history[p, 1], history[p, 2], ox, oy, oz, tx, ty, tz, ks, six,
+                                 siy, siz)
     max_fs2 = dot3(fnx, fny, fnz, fnx, fny, fnz) * (tphi * tphi)
     fs2 = dot3(fsx, fsy, fsz, fsx, fsy, fsz)
     if fs2 > max_fs2:
@@ -131,8 +114,4 @@ def elastic_energy(params, history, overlap):
     return 0.5 * kn * overlap ** 2 + 0.5 * shear
 
 
-@njit(cache=True)
-def set_friction(n, mat_i, mat_j, props, params):
-    """params[:n, 2] = tan(min φ) of each contact's two materials (Ip2's friction, the same tan)."""
-    for k in range(n):
-        params[k, 2] = tan(min(props[mat_i[k], 2], props[mat_j[k], 2]))
+set_friction = set_tan_friction  # params[:n, 2] = tan(min φ) of each contact's two materials

@@ -2,8 +2,8 @@
 
 `make_pair_loop(geometry, law)` returns the `pdem.kernels.Kernel` of `pair_forces` with its
 placeholders bound to the geometry's Ig2 functions (`pdem.contact.geometry`) and the law's Ip2
-and Law2 (`pdem.contact.linear` and siblings); it is cached per pair for the process (and by
-numba on disk). Adding a law writes no loop: its module provides `ip2`, `force` and the
+and Law2 (`pdem.contact.linear` and siblings, composed of `pdem.contact.submodels`); it is cached
+per pair for the process (and by numba on disk). Adding a law writes no loop: its module provides `ip2`, `force` and the
 constants, and `pdem.contact.LAWS` names it.
 
 Per candidate row p (bodies i, j) of a contact list, in Yade's order (YADE_MODEL.md §1, §3–5):
@@ -42,7 +42,9 @@ from .. import vec
 from ..kernels import specialize
 from ..vec import cross3, dot3
 from . import geometry as geometry_module
+from . import submodels
 from .geometry import OPEN, SKIP
+from .submodels import tangential
 
 NORMAL_COLUMNS = 3  # the geometry's history: the normal of the previous step
 
@@ -99,10 +101,7 @@ def pair_forces(n, pi, pj, state, params, history, force, torque, overlap, slot,
             rvx, rvy, rvz = GEOM_CONTACT_VELOCITY(i, j, nx, ny, nz, pen, pos, vel, angvel, radius, other_f)  # noqa: F821
         else:
             rvx, rvy, rvz = GEOM_RELATIVE_VELOCITY(i, j, nx, ny, nz, pen, pos, vel, angvel, radius, other_f)  # noqa: F821
-        dn = dot3(nx, ny, nz, rvx, rvy, rvz)
-        rvx = rvx - dn * nx
-        rvy = rvy - dn * ny
-        rvz = rvz - dn * nz
+        dn, rvx, rvy, rvz = tangential(rvx, rvy, rvz, nx, ny, nz)  # vn and the tangential part
         fx, fy, fz, mx, my, mz = LAW_FORCE(p, fresh, nx, ny, nz, pen, dn, rvx * dt, rvy * dt, rvz * dt,  # noqa: F821
                                            ox, oy, oz, tx, ty, tz, wrx, wry, wrz, dt, params, history)
         history[p, LAW_HISTORY] = nx  # noqa: F821
@@ -197,4 +196,5 @@ def make_pair_loop(geometry, law):
         "LAW_HOLDS": getattr(law, "holds", _always),
         "LAW_CONTACT_POINT_LEVER": getattr(law, "CONTACT_POINT_LEVER", False),
     }
-    return specialize(pair_forces, f"{geometry.name}__{law.NAME}", bindings, sources=(geometry_module, law, vec))
+    return specialize(pair_forces, f"{geometry.name}__{law.NAME}", bindings,
+                      sources=(geometry_module, law, vec, submodels))

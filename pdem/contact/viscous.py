@@ -39,7 +39,7 @@ from math import inf, sqrt
 import numpy as np
 from numba import njit
 
-from ..vec import cross3, dot3, scgeom_rotate
+from .submodels import capped, pair_stiffness, rolling_spring, shear_spring
 
 NAME = "viscous"
 N_PARAMS = 8
@@ -72,12 +72,6 @@ def combine(key, a, b):
 
 
 @njit(inline="always", cache=True)
-def _series(a, b):
-    """2ab/(a + b): the material's value for equal materials; 0 if both are 0."""
-    return (2.0 * a * b) / (a + b) if a + b > 0.0 else 0.0
-
-
-@njit(inline="always", cache=True)
 def reduced_mass(m1, m2):
     """m1 m2/(m1 + m2) [kg]; the finite one if the other is a boundary (inf)."""
     if m1 == inf:
@@ -90,14 +84,14 @@ def reduced_mass(m1, m2):
 @njit(inline="always", cache=True)
 def ip2(props, ma, mb, ra, rb, m1, m2, params, p):
     """Parameters of a new contact between materials ma (body 1) and mb (body 2)."""
-    kn = _series(props[ma, 0], props[mb, 0])
+    kn = pair_stiffness(props[ma, 0], props[mb, 0])
     base = _NK + mb * _NPK
     zeta = props[ma, base]
     params[p, 0] = kn
-    params[p, 1] = _series(props[ma, 1], props[mb, 1])
+    params[p, 1] = pair_stiffness(props[ma, 1], props[mb, 1])
     params[p, 2] = zeta * (2.0 * sqrt(reduced_mass(m1, m2) * kn))
     params[p, 3] = props[ma, base + 1]
-    params[p, 4] = _series(props[ma, 4], props[mb, 4])
+    params[p, 4] = pair_stiffness(props[ma, 4], props[mb, 4])
     r_min = min(ra, rb)
     params[p, 5] = props[ma, base + 2] * r_min
     params[p, 6] = zeta
@@ -116,50 +110,13 @@ def force(p, fresh, nx, ny, nz, pen, vn, six, siy, siz, ox, oy, oz, tx, ty, tz, 
     kr = params[p, 4]
     lever = params[p, 5]
     fn = max(kn * pen - cn * vn, 0.0)  # vn < 0 while approaching
-    if fresh:
-        fsx = fsy = fsz = 0.0
-        mrx = mry = mrz = 0.0
-        mt = 0.0
-    else:
-        fsx, fsy, fsz = scgeom_rotate(history[p, 0], history[p, 1], history[p, 2], ox, oy, oz, tx, ty, tz)
-        mrx = history[p, 3]
-        mry = history[p, 4]
-        mrz = history[p, 5]
-        cx, cy, cz = cross3(mrx, mry, mrz, ox, oy, oz)
-        mrx -= cx
-        mry -= cy
-        mrz -= cz
-        cx, cy, cz = cross3(mrx, mry, mrz, tx, ty, tz)
-        mrx -= cx
-        mry -= cy
-        mrz -= cz
-        mt = history[p, 6]
     # shear: F_s on body 2 (Yade's shearForce convention), body 1 gets -F_s
-    fsx -= ks * six
-    fsy -= ks * siy
-    fsz -= ks * siz
-    cap = mu * fn
-    fs2 = dot3(fsx, fsy, fsz, fsx, fsy, fsz)
-    if fs2 > cap * cap:
-        ratio = cap / sqrt(fs2)
-        fsx *= ratio
-        fsy *= ratio
-        fsz *= ratio
+    fsx, fsy, fsz = shear_spring(fresh, history[p, 0], history[p, 1], history[p, 2], ox, oy, oz, tx, ty, tz, ks, six,
+                                 siy, siz)
+    fsx, fsy, fsz = capped(fsx, fsy, fsz, mu * fn)
     # rolling (in-plane part of ω2 − ω1) and twisting (normal part), moments on body 1
-    wn = dot3(wrx, wry, wrz, nx, ny, nz)
-    mrx += kr * (wrx - wn * nx) * dt
-    mry += kr * (wry - wn * ny) * dt
-    mrz += kr * (wrz - wn * nz) * dt
-    mt += kr * wn * dt
-    mcap = lever * fn
-    mr2 = dot3(mrx, mry, mrz, mrx, mry, mrz)
-    if mr2 > mcap * mcap:
-        ratio = mcap / sqrt(mr2)
-        mrx *= ratio
-        mry *= ratio
-        mrz *= ratio
-    if abs(mt) > mcap:
-        mt = mcap if mt > 0.0 else -mcap
+    mrx, mry, mrz, mt = rolling_spring(fresh, history[p, 3], history[p, 4], history[p, 5], history[p, 6], ox, oy, oz,
+                                       tx, ty, tz, wrx, wry, wrz, nx, ny, nz, kr, dt, lever * fn)
     history[p, 0] = fsx
     history[p, 1] = fsy
     history[p, 2] = fsz
