@@ -107,13 +107,19 @@ def restore_checkpoint(sim, tables, meta):
                          else "the scene has rigid clumps and the checkpoint has none")
     sim.moving_boundaries = bool(meta.get("moving_boundaries", sim.moving_boundaries))
     load_state(sim, tables)
+    restore_clock(sim, meta)
+    return sim
+
+
+def restore_clock(sim, meta):
+    """The clock of a checkpoint's meta: step, time [s], Δt [s], the energy-check reference and
+    the rebuild count (`restore_checkpoint`; a staged run resumed inside a stage)."""
     sim.n_rebuilds = int(meta.get("n_rebuilds", sim.n_rebuilds))
     sim.step = int(meta["step"])
     sim.time = float(meta["time"])
     sim.dt = float(meta["dt"])
     ref = meta.get("energy_reference")
     sim.energy_reference = None if ref is None else [float(x) for x in ref]
-    return sim
 
 
 def load_state(sim, tables):
