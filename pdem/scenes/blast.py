@@ -104,7 +104,6 @@ DEFAULTS = {
     "record_every": 1,                 # steps between rows of the blast record
     "prepared_from": "",               # run directory or prepared-layer file ("": prepare here)
 }
-PREP_STAGES = ("pour", "settle")
 PREPARED_DIR = "prepared_layer"
 # what must agree between a prepared layer and the run that loads it
 PREPARED_KEYS = ("box", "grain_material", "wall_material", "side_material", "diameter_min", "diameter_max", "seed",
@@ -165,13 +164,6 @@ def blast_settings(doc):
         raise InputError("run.steps: not used by a blast run (its stages end on settle criteria and blast.duration); "
                          "remove it")
     return c
-
-
-def stages(c):
-    """The stage names of a run: the preparation (unless ``prepared_from``), then plate and
-    blast per plate."""
-    prep = () if c["prepared_from"] else PREP_STAGES
-    return prep + tuple(s for k in range(len(c["plates"])) for s in (f"plate_{k}", f"blast_{k}"))
 
 
 def plate_dir(mass):
@@ -398,7 +390,7 @@ class BlastRun(StagedRun):
     # ------------------------------------------------------------------ the stages
     def stage_list(self):
         """pour, settle (unless ``prepared_from``), then per plate ``plate_k`` (placed on the
-        prepared layer and settled) and ``blast_k`` (the impulse); as `stages`."""
+        prepared layer and settled) and ``blast_k`` (the impulse)."""
         c = self.c
         prep = [] if c["prepared_from"] else [
             Stage("pour", self.pour_scene, self.settle_program(wait_fall=True), open=self.pour,
