@@ -30,7 +30,7 @@ radius spread and is higher for clumps; damping (λ_D 0.2–0.9) changes how muc
 out beside the sleeper, not the shape of the loops (fig. 5.13); at 1 Hz the loop is rounded
 (the sleeper's momentum), at 0.01 Hz it has a sharp tip (fig. 5.12).
 
-Measures (cycle 1 unless said; from the per-cycle table of each results file, `pdem.driver.cycles`):
+Measures (cycle 1 unless said; from the per-cycle table of each results file, `pdem.scenes.cycles`):
 settlement at the peak = ``settlement_peak`` (from the sleeper's position when loading starts);
 settlement within a cycle = ``settlement_peak − settlement_start``; sinking after the force
 peak = (``settlement_max − settlement_at_force_max``) / ``settlement_max`` (0: a sharp tip);

@@ -1,12 +1,14 @@
-"""Staged runs: a scene prepared and loaded in named stages, with a checkpoint at every stage end.
+"""Staged runs: a scene as a list of stages, with a checkpoint at every stage end.
 
-`StagedRun` is the generic loop the multi-stage scenes (box test, and the oedometer, track
-section and blast layer that follow its pattern) share; a scene subclasses it and says, per
-stage, what opens it (`open_stage`: operations on the global tables — remove bodies above a
-height, pour a cloud with new gids, place a rigid body), which `Scene` holds it
-(`stage_scene`), what is recorded after each step and when the stage ends (`program`), and what
-happens at its end (`close_stage`). Everything else is here: the output directory, resume, the
-stage loop, the record of every finished stage and its checkpoint.
+A `Stage` is plain data plus actions (as HOOMD-blue's operations list or Yade's ``O.engines``):
+its name, the operations that open it on the global tables (``open``: remove bodies above a
+height, pour a cloud with new gids, place a rigid body), the `Scene` that holds it (``scene``),
+what adjusts the built simulation (``prepare``: e.g. lower the friction), what is recorded after
+each step and when it ends (``program``), what happens at its end (``close``) and what its
+summary row adds (``record``). A scene subclasses `StagedRun` and lists its stages
+(`StagedRun.stage_list`); `StagedRun.run` loops over them. Everything else is here: the output
+directory, resume, the record of every finished stage and its checkpoint. The shared
+preparation of a ballast bed (pour, refill, vibrate, settle) is `pdem.scenes.common.preparation`.
 
 Stage boundaries go through the checkpoint: at a stage end every rank writes its part, reads the
 merged gid-ordered tables back, applies the next stage's operations and builds the next scene
@@ -27,7 +29,9 @@ with `Scene.add_sphere_columns(tables["particles"])` and `Scene.add_clump_tables
 tables["clump_members"])`; bonds travel in ``contacts/sphere_sphere``.
 """
 import time as _time
+from dataclasses import dataclass, replace
 from pathlib import Path
+from typing import Callable
 
 import numpy as np
 
@@ -128,17 +132,76 @@ def append_bodies(tables, pos, radius, density, material, first_gid):
     return out
 
 
+# ---------------------------------------------------------------------------- a stage
+def keep_tables(tables):
+    """The default opening of a stage: the tables as they are, no note."""
+    return tables, ""
+
+
+def nothing(*args):
+    """The default action: none."""
+
+
+def no_record(sim):
+    """The default extra entries of a stage's summary row: none."""
+    return {}
+
+
+def in_order(first, then):
+    """An action that runs ``first`` and then ``then`` with the same arguments."""
+    def both(*args):
+        first(*args)
+        then(*args)
+    return both
+
+
+@dataclass(frozen=True)
+class Stage:
+    """One stage of a staged run. ``name`` is its summary and log name (unique in a run);
+    the actions, all called on every rank:
+
+    - ``scene(tables) -> Scene``: the scene holding the bodies of the global ``tables``;
+    - ``program(sim, scene) -> (on_step, until, until_every, t_end)``: what is done after each
+      step, when the stage ends (``until(sim)``, a collective decision checked every
+      ``until_every`` steps) and its expected end time [s] (for the ETA only);
+    - ``open(tables) -> (tables, note)``: operations on the global tables that open it (not
+      repeated when a checkpoint resumes inside it); ``note`` goes into the log line;
+    - ``prepare(sim, scene, mid_stage)``: adjust the built simulation before it runs;
+    - ``max_steps``: at most this many steps (default: until ``until``);
+    - ``close(sim)``: what is done at its end, before its checkpoint;
+    - ``record(sim) -> dict``: extra entries of its summary row (JSON-able);
+    - ``saved(path)``: what is done with its stage-end checkpoint file (collective).
+    """
+
+    name: str
+    scene: Callable
+    program: Callable
+    open: Callable = keep_tables
+    prepare: Callable = nothing
+    max_steps: int = 10**15
+    close: Callable = nothing
+    record: Callable = no_record
+    saved: Callable = nothing
+
+    def then(self, prepare=None, close=None):
+        """This stage with ``prepare`` and/or ``close`` run after its own."""
+        return replace(self, prepare=self.prepare if prepare is None else in_order(self.prepare, prepare),
+                       close=self.close if close is None else in_order(self.close, close))
+
+
 # ---------------------------------------------------------------------------- the staged run
 class StagedRun:
-    """A run in ``STAGES`` on this process's ranks. Subclasses set ``NAME`` (the scene's table
-    name, also the checkpoint meta key) and ``STAGES``, and implement the hooks below."""
+    """A run in stages on this process's ranks. Subclasses set ``NAME`` (the scene's table name,
+    also the checkpoint meta key) and list their stages (`stage_list`); ``STAGES`` holds their
+    names. The run-level hooks below have defaults."""
 
     NAME = "staged"
-    STAGES = ()
 
     def __init__(self, path, doc, out_dir, comm, fresh):
         self.run_cfg = run_settings(doc)
         self.path, self.doc, self.comm = path, doc, comm
+        self.stages = self.stage_list()
+        self.STAGES = tuple(stage.name for stage in self.stages)
         self.t_start = _time.perf_counter()
         self.out = prepare_output(comm, out_dir)
         self.scene_text = Path(path).read_text()
@@ -175,6 +238,11 @@ class StagedRun:
         self.open_outputs()
 
     # ------------------------------------------------------------------ hooks
+    def stage_list(self):
+        """The run's `Stage` objects in order (called once, before the run's state exists: their
+        actions read it when called)."""
+        raise NotImplementedError
+
     def start_point(self):
         """(tables, meta, state) a fresh run starts from instead of stage 0, or None (default):
         e.g. a prepared bed, the checkpoint of another run at the end of its preparation."""
@@ -194,30 +262,6 @@ class StagedRun:
     def close_outputs(self):
         """Flush and close them."""
 
-    def open_stage(self, stage, tables):
-        """(tables, log note): the operations that open ``stage`` on the global tables."""
-        return tables, ""
-
-    def stage_scene(self, stage, tables):
-        """The `Scene` of ``stage`` holding the bodies of ``tables``."""
-        raise NotImplementedError
-
-    def prepare(self, stage, sim, scene, mid_stage):
-        """Adjust the built simulation before the stage runs (e.g. lower the friction)."""
-
-    def program(self, stage, sim, scene):
-        """(on_step, until, until_every, t_end): what is recorded after each step and when the
-        stage ends (``until(sim)``, a collective decision checked every ``until_every`` steps;
-        ``t_end`` only for the ETA)."""
-        raise NotImplementedError
-
-    def max_steps(self, stage):
-        """At most this many steps in ``stage`` (default: until ``program``'s ``until``)."""
-        return 10**15
-
-    def close_stage(self, stage, sim):
-        """What the scene does at the end of ``stage`` before its checkpoint."""
-
     def collect(self, sim):
         """Every rank at the end of a run that was not stopped by a signal (collectives allowed):
         what `finish` or `report_stop` needs from all ranks."""
@@ -234,13 +278,13 @@ class StagedRun:
         self.loop.log(f"pdem {__version__}: {self.NAME} {self.path} on {self.comm.size} rank(s); stages "
                       f"{', '.join(self.STAGES)}")
         sim = None
-        while self.state["stage"] < len(self.STAGES):
-            stage = self.STAGES[self.state["stage"]]
+        while self.state["stage"] < len(self.stages):
+            stage = self.stages[self.state["stage"]]
             wall0 = _time.perf_counter()
             sim, scene = self.build_stage(stage)
-            on_step, until, every, t_end = self.program(stage, sim, scene)
+            on_step, until, every, t_end = stage.program(sim, scene)
             eta_step = sim.step + int(max(t_end - sim.time, 0.0) / max(sim.dt, 1e-300))
-            n_steps = self.max_steps(stage)
+            n_steps = stage.max_steps
             if self.stop_step is not None:
                 n_steps = min(n_steps, max(self.stop_step - sim.step, 0))
             outcome = self.loop.advance(sim, n_steps, on_step=on_step, until=until, until_every=every,
@@ -249,8 +293,8 @@ class StagedRun:
                 break
             if outcome == "done" and self.stop_step is not None and sim.step >= self.stop_step:
                 self.loop.checkpoint(sim, f"--steps {self.stop_step} reached")
-                self.loop.log(f"stopped at step {sim.step} (--steps {self.stop_step}) in stage {stage}; run again "
-                              "without --steps to continue")
+                self.loop.log(f"stopped at step {sim.step} (--steps {self.stop_step}) in stage {stage.name}; run "
+                              "again without --steps to continue")
                 self.stopped = True
                 break
             self.end_stage(stage, sim, wall0)
@@ -276,42 +320,38 @@ class StagedRun:
         mid_stage = state["started"]
         note = ""
         if not mid_stage:
-            self.tables, note = self.open_stage(stage, self.tables)
-            meta = self.meta  # open_stage may set the clock (pdem.scenes.blast: every plate from the prepared layer)
+            self.tables, note = stage.open(self.tables)
+            meta = self.meta  # an opening may set the clock (pdem.scenes.blast: every plate from the prepared layer)
             state["next_gid"] = next_free_gid(self.tables, state["next_gid"])
             state.update(started=True, stage_t0=float(meta["time"]) if meta else 0.0)
         tables = self.tables
-        scene = self.stage_scene(stage, tables)
+        scene = stage.scene(tables)
         sim = scene.build(self.comm)
         sim.timers = self.timers
         sim.load_state(tables)
         self.tables = None
         restore_clock(sim, meta, continuing=mid_stage)  # mid-stage: the checkpoint's Δt and energy reference
-        self.prepare(stage, sim, scene, mid_stage)
+        stage.prepare(sim, scene, mid_stage)
         n_total = self.comm.allreduce_sum_int(sim.particles.n_local)
-        self.loop.log(f"stage {stage}{' (resumed)' if mid_stage else ''}: {n_total} spheres, t = {sim.time:.4f} s, "
-                      f"dt = {sim.dt:.3e} s{'; ' + note if note else ''}")
+        self.loop.log(f"stage {stage.name}{' (resumed)' if mid_stage else ''}: {n_total} spheres, t = "
+                      f"{sim.time:.4f} s, dt = {sim.dt:.3e} s{'; ' + note if note else ''}")
         return sim, scene
 
-    def end_stage(self, stage, sim, wall0, **record):
-        """Record the stage, let the scene close it, write its checkpoint and read it back for
-        the next stage."""
+    def end_stage(self, stage, sim, wall0):
+        """Record the stage, close it, write its checkpoint and read it back for the next stage."""
         state = self.state
-        self.close_stage(stage, sim)
-        row = {"stage": stage, "t_start": state["stage_t0"], "t_end": sim.time, "step_end": sim.step,
+        stage.close(sim)
+        row = {"stage": stage.name, "t_start": state["stage_t0"], "t_end": sim.time, "step_end": sim.step,
                "spheres": self.comm.allreduce_sum_int(sim.particles.n_local),
                "unbalanced_force": observables.unbalanced_force(sim), "bed_top": observables.bed_top(sim),
-               "wall_s": _time.perf_counter() - wall0, **self.stage_record(stage, sim)}
+               "wall_s": _time.perf_counter() - wall0, **stage.record(sim)}
         state["stages"].append(row)
         state.update(stage=state["stage"] + 1, started=False)
-        written = self.loop.checkpoint(sim, f"end of stage {stage}")
-        if state["stage"] < len(self.STAGES):
+        written = self.loop.checkpoint(sim, f"end of stage {stage.name}")
+        stage.saved(written)
+        if state["stage"] < len(self.stages):
             self.tables, self.meta = read_checkpoint(written)
         return written
-
-    def stage_record(self, stage, sim):
-        """Extra entries of the stage's summary row (JSON-able)."""
-        return {}
 
 
 def check_no_steps(steps):

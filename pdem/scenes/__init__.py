@@ -6,6 +6,9 @@ the ranks of ``comm``; returns the exit status). A scene file selects one by its
 (``[box_test]`` → `pdem.scenes.box_test`, ``[track]`` → `pdem.scenes.track`, ``[oedometer]`` →
 `pdem.scenes.oedometer`); a file with none
 of them is a plain scene (`pdem.driver.plain`). Adding a scene is its module plus one line in `SCENES`.
+A staged scene lists its stages (`pdem.driver.stages.Stage`); what scenes share lives beside them:
+`pdem.scenes.common.preparation` (the pour, refill, vibrate and settle stages of a ballast bed),
+`pdem.scenes.cycles` (the box test's per-cycle record), `pdem.scenes.track_record` (the track's).
 """
 from importlib import import_module
 

@@ -61,9 +61,11 @@ from ..driver.plain import write_snapshot
 from ..driver.plots import plot_energy, save_figure, series_figure
 from ..driver.results import series_writer, write_root_attrs
 from ..driver.stages import (
+    Stage,
     StagedRun,
     append_bodies,
     empty_tables,
+    in_order,
     remove_above,
     scaled_stiffness,
 )
@@ -102,7 +104,6 @@ DEFAULTS = {
     "record_every": 1,                 # steps between rows of the blast record
     "prepared_from": "",               # run directory or prepared-layer file ("": prepare here)
 }
-PREP_STAGES = ("pour", "settle")
 PREPARED_DIR = "prepared_layer"
 # what must agree between a prepared layer and the run that loads it
 PREPARED_KEYS = ("box", "grain_material", "wall_material", "side_material", "diameter_min", "diameter_max", "seed",
@@ -165,13 +166,6 @@ def blast_settings(doc):
     return c
 
 
-def stages(c):
-    """The stage names of a run: the preparation (unless ``prepared_from``), then plate and
-    blast per plate."""
-    prep = () if c["prepared_from"] else PREP_STAGES
-    return prep + tuple(s for k in range(len(c["plates"])) for s in (f"plate_{k}", f"blast_{k}"))
-
-
 def plate_dir(mass):
     """Results directory of the plate of areal mass ``mass`` [kg/m^2]."""
     return f"plate_{mass:g}"
@@ -204,14 +198,16 @@ def plate_geometry(c, bottom):
     return np.array([lx / 2, ly / 2, bottom + t / 2]), np.array([lx / 2, ly / 2, t / 2])
 
 
-def stage_scene(doc, c, stage, tables, plate_mass=None, load=None, plate_center=None, lowering=False):
-    """The `Scene` of ``stage`` holding the spheres of ``tables``: the file's materials and
-    settings, the ceiling and four side walls, and (plate and blast stages) the cover plate,
-    free in z or (``lowering``) moved at a prescribed velocity (`PlateLowering`)."""
+def stage_scene(doc, c, tables, plate_mass=None, load=None, plate_center=None, lowering=False, stiffness=1.0):
+    """The `Scene` of a stage holding the spheres of ``tables``: the file's materials and
+    settings (every stiffness times ``stiffness``: ``prep_stiffness_factor`` while pouring), the
+    ceiling and four side walls, and (plate and blast stages: ``plate_mass`` [kg/m²] given) the
+    cover plate, free in z or (``lowering``) moved at a prescribed velocity (`PlateLowering`).
+    With the blast's ``load`` (an impulse stage) nothing is damped."""
     base = {k: v for k, v in doc.items() if k in ("simulation", "materials", "material_pairs")}
-    if stage == "pour" and c["prep_stiffness_factor"] != 1.0:
-        base["materials"] = scaled_stiffness(base["materials"], c["prep_stiffness_factor"])
-    blast = stage.startswith("blast")
+    if stiffness != 1.0:
+        base["materials"] = scaled_stiffness(base["materials"], stiffness)
+    blast = load is not None
     base["simulation"] = {**base.get("simulation", {}), "allow_initial_overlap": True,
                           "damping": 0.0 if blast else c["prep_damping"]}
     scene = scene_from_dict(base)
@@ -349,10 +345,9 @@ def check(doc):
         raise InputError("simulation.law: required for a blast run (the paper's law is \"viscous\")")
     if c["plates"]:
         center, _ = plate_geometry(c, c["box"][2])
-        stage_scene(doc, c, "blast_0", empty_tables(), c["plates"][0], Impulse(c["F0"], c["tau"], label="blast"),
-                    center)
+        stage_scene(doc, c, empty_tables(), c["plates"][0], Impulse(c["F0"], c["tau"], label="blast"), center)
     else:
-        stage_scene(doc, c, "pour", empty_tables())
+        stage_scene(doc, c, empty_tables(), stiffness=c["prep_stiffness_factor"])
     if c["prepared_from"]:
         read_prepared(c["prepared_from"], c, doc["materials"])
 
@@ -375,7 +370,6 @@ class BlastRun(StagedRun):
 
     def __init__(self, path, doc, out_dir, comm, fresh):
         self.c = blast_settings(doc)
-        self.STAGES = stages(self.c)
         self.writer = None
         super().__init__(path, doc, out_dir, comm, fresh)
 
@@ -393,26 +387,45 @@ class BlastRun(StagedRun):
         if self.writer is not None:
             self.writer.close()
 
-    def plate_of(self, stage):
-        return self.c["plates"][int(stage.split("_")[1])]
+    # ------------------------------------------------------------------ the stages
+    def stage_list(self):
+        """pour, settle (unless ``prepared_from``), then per plate ``plate_k`` (placed on the
+        prepared layer and settled) and ``blast_k`` (the impulse)."""
+        c = self.c
+        prep = [] if c["prepared_from"] else [
+            Stage("pour", self.pour_scene, self.settle_program(wait_fall=True), open=self.pour,
+                  close=self.settle_close("pour"), record=self.stage_record),
+            Stage("settle", self.prep_scene, self.settle_program(), open=self.cut,
+                  close=in_order(self.settle_close("settle"), self.write_prepared), record=self.stage_record)]
+        return prep + [stage for k, mass in enumerate(c["plates"]) for stage in (
+            Stage(f"plate_{k}", self.plate_scene(mass), self.settle_program(plate=True), open=self.place_plate(mass),
+                  close=self.settle_close(f"plate_{k}", plate=True), record=self.stage_record),
+            Stage(f"blast_{k}", self.blast_scene(mass), self.blast_program(mass), open=self.open_blast,
+                  close=self.blast_close(f"blast_{k}", mass), record=self.stage_record))]
 
-    def open_stage(self, stage, tables):
+    def pour(self, tables):
         c, state = self.c, self.state
-        if stage == "pour":
-            pos, radius = cloud(c)
-            g = float(np.linalg.norm(self.doc.get("simulation", {}).get("gravity", [0.0, 0.0, 0.0])))
-            top = float(np.max(pos[:, 2] + radius))
-            state["pour_min_time"] = float(np.sqrt(2.0 * top / g)) if g > 0 else 0.0
-            grain = c["grain_material"]
-            tables = append_bodies(empty_tables(), pos, radius, self.doc["materials"][grain]["density"],
-                                   list(self.doc["materials"]).index(grain), 0)
-            return tables, f"poured {len(radius)} spheres"
-        if stage == "settle":
-            tables, removed = remove_above(tables, c["box"][2])
-            if c["prep_stiffness_factor"] != 1.0:  # the soft pour's contacts are made again at full stiffness
-                tables = {k: v for k, v in tables.items() if not k.startswith("contacts/")}
-            return tables, f"removed {removed} spheres above {c['box'][2]} m"
-        if stage.startswith("plate"):
+        pos, radius = cloud(c)
+        g = float(np.linalg.norm(self.doc.get("simulation", {}).get("gravity", [0.0, 0.0, 0.0])))
+        top = float(np.max(pos[:, 2] + radius))
+        state["pour_min_time"] = float(np.sqrt(2.0 * top / g)) if g > 0 else 0.0
+        grain = c["grain_material"]
+        tables = append_bodies(empty_tables(), pos, radius, self.doc["materials"][grain]["density"],
+                               list(self.doc["materials"]).index(grain), 0)
+        return tables, f"poured {len(radius)} spheres"
+
+    def cut(self, tables):
+        c = self.c
+        tables, removed = remove_above(tables, c["box"][2])
+        if c["prep_stiffness_factor"] != 1.0:  # the soft pour's contacts are made again at full stiffness
+            tables = {k: v for k, v in tables.items() if not k.startswith("contacts/")}
+        return tables, f"removed {removed} spheres above {c['box'][2]} m"
+
+    def place_plate(self, mass):
+        """The plate stage's opening: the prepared layer, the plate of ``mass`` [kg/m²] on its
+        highest grain."""
+        def place(tables):
+            c, state = self.c, self.state
             tables, meta = read_prepared(state["prepared"], c, self.doc["materials"])
             tables = {k: v for k, v in tables.items() if k != "boxes"}
             self.restart_clock(meta)
@@ -421,11 +434,13 @@ class BlastRun(StagedRun):
             state["plate_center"] = plate_geometry(c, top)[0].tolist()
             state["plate_free"] = not c["plate_lowering_speed"]
             return tables, (
-                f"from the prepared layer {state['prepared']}: placed the plate of {self.plate_of(stage):g} "
+                f"from the prepared layer {state['prepared']}: placed the plate of {mass:g} "
                 f"kg/m^2 on the highest grain (z = {top:.4f} m)"
             )
-        if stage.startswith("blast"):
-            state["blast_t0"] = float(self.meta["time"]) if self.meta else 0.0
+        return place
+
+    def open_blast(self, tables):
+        self.state["blast_t0"] = float(self.meta["time"]) if self.meta else 0.0
         return tables, ""
 
     def restart_clock(self, prepared):
@@ -447,86 +462,105 @@ class BlastRun(StagedRun):
             self.meta = {"n_rebuilds": 0}
         self.meta.update(step=step, time=float(prepared["time"]))
 
-    def stage_scene(self, stage, tables):
-        c, state = self.c, self.state
-        if stage in PREP_STAGES:
-            return stage_scene(self.doc, c, stage, tables)
-        load = Impulse(c["F0"], c["tau"], start=state["blast_t0"], label="blast") if stage.startswith("blast") else None
-        center = tables["boxes"]["center"][0] if "boxes" in tables else np.asarray(state["plate_center"])
-        lowering = stage.startswith("plate") and not state["plate_free"]
-        return stage_scene(self.doc, c, stage, tables, self.plate_of(stage), load, center, lowering)
+    def pour_scene(self, tables):
+        return stage_scene(self.doc, self.c, tables, stiffness=self.c["prep_stiffness_factor"])
 
-    def program(self, stage, sim, scene):
-        c, state, run = self.c, self.state, self.run_cfg
-        t0 = state["stage_t0"]
-        k = self.STAGES.index(stage)
-        if stage.startswith("blast"):
-            return self.blast_program(stage, sim, scene)
-        if sim.time == t0:
-            self.prep.append(prep_sample(sim, k))
-            if self.snaps is not None:
-                write_snapshot(self.snaps, sim)
+    def prep_scene(self, tables):
+        return stage_scene(self.doc, self.c, tables)
 
-        plate = stage.startswith("plate")
-        lower = PlateLowering(c["plate_lowering_speed"], state) if plate else None
+    def plate_center(self, tables):
+        return tables["boxes"]["center"][0] if "boxes" in tables else np.asarray(self.state["plate_center"])
 
-        def on_step(sim):
-            if lower is not None:
-                lower(sim)
-            if run["output_every"] and sim.step % run["output_every"] == 0:
+    def plate_scene(self, mass):
+        def scene(tables):
+            return stage_scene(self.doc, self.c, tables, mass, None, self.plate_center(tables),
+                               not self.state["plate_free"])
+        return scene
+
+    def blast_scene(self, mass):
+        def scene(tables):
+            load = Impulse(self.c["F0"], self.c["tau"], start=self.state["blast_t0"], label="blast")
+            return stage_scene(self.doc, self.c, tables, mass, load, self.plate_center(tables))
+        return scene
+
+    def settle_program(self, plate=False, wait_fall=False):
+        """Settle until the unbalanced-force ratio is small (and, ``plate``, the plate lowered,
+        let go and at rest), not before the stage's minimum time (``wait_fall``: nor before the
+        top of the cloud could have fallen to the floor), at most its maximum time."""
+        def program(sim, scene):
+            c, state, run = self.c, self.state, self.run_cfg
+            t0 = state["stage_t0"]
+            k = state["stage"]
+            if sim.time == t0:
                 self.prep.append(prep_sample(sim, k))
-            self.snapshot(sim)
+                if self.snaps is not None:
+                    write_snapshot(self.snaps, sim)
 
-        ratio = c["plate_settle_ratio" if plate else "settle_ratio"]
-        t_min = c["plate_settle_min_time" if plate else "settle_min_time"]
-        if stage == "pour":  # not before the top of the cloud could have fallen to the floor
-            t_min = max(t_min, state.get("pour_min_time", 0.0))
-        t_end = t0 + c["plate_settle_max_time" if plate else "settle_max_time"]
+            lower = PlateLowering(c["plate_lowering_speed"], state) if plate else None
 
-        def settled(sim):
-            if sim.time >= t_end:
-                return True
-            if sim.time - t0 < t_min or observables.unbalanced_force(sim) >= ratio:
-                return False
-            return not plate or (
-                state["plate_free"] and plate_balance(sim) < ratio
-                and abs(sim.boxes.velocity[0, 2]) < c["plate_settle_velocity"]
-            )
+            def on_step(sim):
+                if lower is not None:
+                    lower(sim)
+                if run["output_every"] and sim.step % run["output_every"] == 0:
+                    self.prep.append(prep_sample(sim, k))
+                self.snapshot(sim)
 
-        return on_step, settled, c["check_every"], t_end
+            ratio = c["plate_settle_ratio" if plate else "settle_ratio"]
+            t_min = c["plate_settle_min_time" if plate else "settle_min_time"]
+            if wait_fall:
+                t_min = max(t_min, state.get("pour_min_time", 0.0))
+            t_end = t0 + c["plate_settle_max_time" if plate else "settle_max_time"]
 
-    def blast_program(self, stage, sim, scene):
-        c, state = self.c, self.state
-        mass = self.plate_of(stage)
-        t0 = state["blast_t0"]
-        load = scene.boxes.loads[0]
-        area = c["box"][0] * c["box"][1]
-        results = self.out / plate_dir(mass) / "results.h5"
-        fresh = sim.time == t0
-        if self.comm.rank == 0 and fresh:
-            results.parent.mkdir(parents=True, exist_ok=True)
-            results.unlink(missing_ok=True)
-        self.comm.barrier()
-        self.writer = series_writer(results, BLAST_RUN_SERIES, self.comm, restart_step=None if fresh else sim.step)
-        self.loop.flush.append(self.writer)
-        if self.comm.rank == 0:
-            write_root_attrs(results, {k: self.doc[k] for k in ("simulation", "materials", "blast") if k in self.doc},
-                             "blast")
-            write_blast_parameters(results, plate_areal_mass=mass, ceiling_area=area, F0=c["F0"], tau=c["tau"])
-        if fresh:
-            self.log_time_step(sim, mass)
-        every = c["record_every"]
-        t_end = t0 + c["duration"]
-        limit = 0.25 * radius_range(c)[0]
-        step0 = sim.step if fresh else None
+            def settled(sim):
+                if sim.time >= t_end:
+                    return True
+                if sim.time - t0 < t_min or observables.unbalanced_force(sim) >= ratio:
+                    return False
+                return not plate or (
+                    state["plate_free"] and plate_balance(sim) < ratio
+                    and abs(sim.boxes.velocity[0, 2]) < c["plate_settle_velocity"]
+                )
 
-        def on_step(sim):
-            check_plate_step(sim, limit)
-            if sim.step % every == 0 or sim.step - 1 == step0:  # the first row: the static state at t = 0
-                self.writer.append(blast_sample(sim, t0, load, area))
-            self.snapshot(sim)
+            return on_step, settled, c["check_every"], t_end
 
-        return on_step, lambda sim: sim.time - sim.dt >= t_end * (1 - 1e-12), 1, t_end
+        return program
+
+    def blast_program(self, mass):
+        """The impulse on the ceiling with the plate of ``mass`` [kg/m²]: its record in
+        plate_<mass>/results.h5 for ``duration`` [s]."""
+        def program(sim, scene):
+            c, state = self.c, self.state
+            t0 = state["blast_t0"]
+            load = scene.boxes.loads[0]
+            area = c["box"][0] * c["box"][1]
+            results = self.out / plate_dir(mass) / "results.h5"
+            fresh = sim.time == t0
+            if self.comm.rank == 0 and fresh:
+                results.parent.mkdir(parents=True, exist_ok=True)
+                results.unlink(missing_ok=True)
+            self.comm.barrier()
+            self.writer = series_writer(results, BLAST_RUN_SERIES, self.comm, restart_step=None if fresh else sim.step)
+            self.loop.flush.append(self.writer)
+            if self.comm.rank == 0:
+                write_root_attrs(results, {k: self.doc[k] for k in ("simulation", "materials", "blast")
+                                           if k in self.doc}, "blast")
+                write_blast_parameters(results, plate_areal_mass=mass, ceiling_area=area, F0=c["F0"], tau=c["tau"])
+            if fresh:
+                self.log_time_step(sim, mass)
+            every = c["record_every"]
+            t_end = t0 + c["duration"]
+            limit = 0.25 * radius_range(c)[0]
+            step0 = sim.step if fresh else None
+
+            def on_step(sim):
+                check_plate_step(sim, limit)
+                if sim.step % every == 0 or sim.step - 1 == step0:  # the first row: the static state at t = 0
+                    self.writer.append(blast_sample(sim, t0, load, area))
+                self.snapshot(sim)
+
+            return on_step, lambda sim: sim.time - sim.dt >= t_end * (1 - 1e-12), 1, t_end
+
+        return program
 
     def log_time_step(self, sim, mass):
         """Δt of pdem against the paper's eq. 10 estimate (smallest mass, largest stiffness)."""
@@ -549,33 +583,38 @@ class BlastRun(StagedRun):
         if self.snaps is not None and (sim.step % every == 0) != stage_end:
             write_snapshot(self.snaps, sim)
 
-    def close_stage(self, stage, sim):
-        c, log = self.c, self.loop.log
-        ratio = observables.unbalanced_force(sim)
-        if stage in PREP_STAGES or stage.startswith("plate"):
-            want = c["plate_settle_ratio" if stage.startswith("plate") else "settle_ratio"]
-            if ratio >= want or (stage.startswith("plate") and plate_balance(sim) >= want):
-                log(
-                    f"warning: stage {stage} reached its maximum time with unbalanced force ratio {ratio:.3g} "
-                    f">= {want}; "
-                    "going on"
-                )
-            self.prep.append(prep_sample(sim, self.STAGES.index(stage)))
+    def stage_done(self, sim, name):
+        """The stage-end line and snapshot."""
         top = observables.bed_top(sim)
         plate = "" if sim.boxes is None else f", plate bottom {sim.boxes.center[0, 2] - sim.boxes.half[0, 2]:.5f} m"
-        log(
-            f"stage {stage} done at t = {sim.time:.5f} s, step {sim.step}: unbalanced force ratio {ratio:.3g}, "
-            "layer top "
-            f"{top:.4f} m{plate}"
+        self.loop.log(
+            f"stage {name} done at t = {sim.time:.5f} s, step {sim.step}: unbalanced force ratio "
+            f"{observables.unbalanced_force(sim):.3g}, layer top {top:.4f} m{plate}"
         )
         self.snapshot(sim, stage_end=True)
-        if stage == "settle":
-            self.write_prepared(sim)
-        if stage.startswith("blast"):
+
+    def settle_close(self, name, plate=False):
+        """A settling stage's end: a warning if it did not settle, its last preparation row."""
+        def close(sim):
+            c = self.c
+            ratio = observables.unbalanced_force(sim)
+            want = c["plate_settle_ratio" if plate else "settle_ratio"]
+            if ratio >= want or (plate and plate_balance(sim) >= want):
+                self.loop.log(f"warning: stage {name} reached its maximum time with unbalanced force ratio "
+                              f"{ratio:.3g} >= {want}; going on")
+            self.prep.append(prep_sample(sim, self.state["stage"]))
+            self.stage_done(sim, name)
+        return close
+
+    def blast_close(self, name, mass):
+        """A blast stage's end: its record closed."""
+        def close(sim):
+            self.stage_done(sim, name)
             self.writer.close()
             self.loop.flush.remove(self.writer)
             self.writer = None
-            self.state["plates"].append(self.plate_of(stage))
+            self.state["plates"].append(mass)
+        return close
 
     def write_prepared(self, sim):
         """The prepared layer: a checkpoint of the end of stage settle in prepared_layer/, with
@@ -591,7 +630,7 @@ class BlastRun(StagedRun):
         self.state["prepared"] = str(written)
         self.loop.log(f"prepared layer: {written}")
 
-    def stage_record(self, stage, sim):
+    def stage_record(self, sim):
         return {"plate_z": None if sim.boxes is None else float(sim.boxes.center[0, 2])}
 
     def finish(self, sim, wall_s):

@@ -20,7 +20,7 @@ A scene file with a ``[box_test]`` table (keys and defaults in `DEFAULTS`, units
 With ``prep_stiffness_factor`` f < 1 (law linear) stages 1–4 run with every material's young
 times f, and a ``stiffen`` stage before ``load`` raises it to the materials' over ``stiffen_time``
 (`BoxTestRun.stiffen_program`), then settles. With a ``[box_test.clumps]`` table the ballast is
-rigid clumps of that grain (`grain_settings`; `pdem.driver.preparation.add_grain_cloud`).
+rigid clumps of that grain (`grain_settings`; `pdem.scenes.common.preparation.add_grain_cloud`).
 
 Options for what the thesis leaves open (``CHOICES``; docs/box_test.md "Options"): ``cut``
 ("top" | "center"), ``sleeper_placement`` ("cut" | "on_top", `sleeper_on_top`), ``refill``
@@ -52,25 +52,22 @@ from analysis.schema import BOX_TEST_SERIES
 
 from ..config import CLUMP_KEYS, check_keys, grain_shape, run_settings, scene_from_dict
 from ..diagnostics import kinetic_energy
-from ..driver.cycles import CycleRecorder
-from ..driver.preparation import PREPARATION_DEFAULTS, PREPARATION_STAGES, PreparedRun, add_cloud, \
-    check_preparation, plot_preparation
-from ..driver.results import series_writer, write_cycles, write_root_attrs
-from ..driver.stages import empty_tables, remove_above, scaled_stiffness
-from ..errors import InputError
 from ..driver import observables
 from ..driver.observables import box_face_forces
-from ..driver.preparation import remove_where
+from ..driver.results import series_writer, write_cycles, write_root_attrs
+from ..driver.stages import Stage, empty_tables, remove_above, scaled_stiffness
+from ..errors import InputError
 from ..loads import HalfSine, Haversine
 from ..validate import number
+from .common.preparation import PREPARATION_DEFAULTS, PreparedRun, add_cloud, check_preparation, plot_preparation, \
+    pour_stage, refill_stage, remove_where, settle_stage, vibrate_stage
+from .cycles import CycleRecorder
 
-STAGES = PREPARATION_STAGES + ("load",)
-STIFFENED_STAGES = PREPARATION_STAGES + ("stiffen", "load")  # with prep_stiffness_factor < 1
 # keys of [box_test.clumps]: a rigid grain (its shape, member radius, mass model)
 GRAIN_KEYS = CLUMP_KEYS - {"material", "box_lo", "box_hi", "count", "seed", "vel", "breakable", "stress_free"}
 # [box_test] keys and defaults (SPEC.md 2.3, thesis table 5.1; stiffness is in [materials]);
 # the preparation pipeline's keys (radius, seed, settle_*, vibration_* ...) are
-# `pdem.driver.preparation.PREPARATION_DEFAULTS`
+# `pdem.scenes.common.preparation.PREPARATION_DEFAULTS`
 DEFAULTS = {
     "box": [0.7, 0.3, 0.45],           # inner length x, width y, height z [m]
     "ballast_material": "ballast", "wall_material": "steel", "base_material": "rubber",
@@ -237,15 +234,16 @@ def catch_depth(c):
 
 
 # ---------------------------------------------------------------------------- stage scenes
-def stage_scene(doc, c, stage, tables, load_start=None, sleeper_center=None):
-    """The `Scene` of ``stage`` holding the spheres of ``tables``: materials and settings of
-    the file, the box's five walls, the sleeper from stage ``refill`` on (loaded in ``load``).
-    With ``base`` = "two_sided" the base acts on both sides (Yade's wall sense 0) and a sixth
-    wall ``catch`` at `catch_depth` below it holds the spheres that passed through. Before
-    ``load``, every material's stiffness is times ``prep_stiffness_factor``."""
+def stage_scene(doc, c, tables, sleeper=True, load_start=None, sleeper_center=None, stiffness=1.0):
+    """The `Scene` of a stage holding the spheres of ``tables``: materials and settings of the
+    file, the box's five walls, the sleeper if ``sleeper`` (from stage ``refill`` on; loaded
+    from ``load_start`` [s] if given: stage ``load``). With ``base`` = "two_sided" the base acts
+    on both sides (Yade's wall sense 0) and a sixth wall ``catch`` at `catch_depth` below it
+    holds the spheres that passed through. Every material's stiffness times ``stiffness``
+    (``prep_stiffness_factor`` before ``load``)."""
     base = {k: v for k, v in doc.items() if k in ("simulation", "materials")}
-    if c["prep_stiffness_factor"] != 1.0 and stage != "load":
-        base["materials"] = scaled_stiffness(base["materials"], c["prep_stiffness_factor"])
+    if stiffness != 1.0:
+        base["materials"] = scaled_stiffness(base["materials"], stiffness)
     base["simulation"] = {**base.get("simulation", {}), "allow_initial_overlap": True}
     scene = scene_from_dict(base)
     lx, ly, _ = c["box"]
@@ -257,12 +255,12 @@ def stage_scene(doc, c, stage, tables, load_start=None, sleeper_center=None):
     scene.add_wall("y", ly, c["wall_material"], sense=-1, name="y_max")
     if two_sided:
         scene.add_wall("z", -catch_depth(c), c["wall_material"], sense=1, name="catch")
-    if stage != "pour":
+    if sleeper:
         center, half = sleeper_geometry(c, c["cut_height"])
         if sleeper_center is not None:
             center = np.asarray(sleeper_center, float)
         load = (WAVEFORMS[c["waveform"]](c["f_min"], c["f_max"], c["frequency"], c["cycles"], start=load_start,
-                                         label="box_test") if stage == "load" else None)
+                                         label="box_test") if load_start is not None else None)
         scene.add_box(center, half, c["sleeper_material"], c["sleeper_mass"], blocked="xyXYZ", load=load,
                       damping=scene.settings["damping"], name="sleeper", members=c["sleeper_members"],
                       member_radius=c["sleeper_member_radius"])
@@ -319,7 +317,7 @@ def check(doc):
     """Check a parsed box-test scene file without running it (one-line InputError)."""
     box_settings(doc)
     run_settings(doc)
-    stage_scene(doc, box_settings(doc), "load", empty_tables(), 0.0, None)
+    stage_scene(doc, box_settings(doc), empty_tables(), load_start=0.0)
 
 
 def run(path, doc, out_dir, comm, steps=None, fresh=False):
@@ -331,18 +329,32 @@ def run(path, doc, out_dir, comm, steps=None, fresh=False):
 
 
 class BoxTestRun(PreparedRun):
-    """One box test on this process's ranks: the preparation pipeline
-    (`pdem.driver.preparation.PreparedRun`) in the box, then the cyclic load stage, its records
-    (results.h5 with the cycles) and the finishing analysis. The scene's ``state`` adds the load
-    start and the cycle recorder."""
+    """One box test on this process's ranks: the preparation stages
+    (`pdem.scenes.common.preparation`) in the box, then (after ``stiffen`` if the preparation
+    was soft) the cyclic load stage, its records (results.h5 with the cycles) and the finishing
+    analysis. The scene's ``state`` adds the load start and the cycle recorder."""
 
     NAME = "box_test"
 
     def __init__(self, path, doc, out_dir, comm, fresh):
         self.c = box_settings(doc)
-        self.STAGES = STAGES if self.c["prep_stiffness_factor"] == 1.0 else STIFFENED_STAGES
         self.recorder = None
         super().__init__(path, doc, out_dir, comm, fresh)
+
+    def stage_list(self):
+        soft = self.c["prep_stiffness_factor"] != 1.0
+        stages = [pour_stage(self, lambda tables: self.stage_scene(tables, sleeper=False), self.pour),
+                  refill_stage(self, self.stage_scene, self.refill),
+                  vibrate_stage(self, self.stage_scene, self.trim),
+                  settle_stage(self, self.stage_scene).then(close=None if soft else self.first_load_row)]
+        if soft:
+            stages.append(self.stiffen_stage())
+        stages.append(Stage("load", lambda tables: self.stage_scene(tables, loaded=True), self.load_program,
+                            open=self.open_load, close=lambda sim: self.stage_done(sim, "load"),
+                            record=self.stage_record))
+        if self.c["base"] == "two_sided":
+            stages = [stage.then(prepare=self.open_base) for stage in stages]
+        return stages
 
     def initial_state(self):
         return {"load_start": None, "recorder": None, "stiffness_scale": self.c["prep_stiffness_factor"]}
@@ -364,6 +376,24 @@ class BoxTestRun(PreparedRun):
 
     def close_results(self):
         self.series.close()
+
+    def stage_scene(self, tables, sleeper=True, loaded=False):
+        """`stage_scene` of the run: the sleeper where the tables (or the refill) put it; before
+        ``load`` at the preparation's stiffness."""
+        center = tables["boxes"]["center"][0] if "boxes" in tables else None
+        if center is None and self.state.get("sleeper_bottom") is not None:
+            center = sleeper_geometry(self.c, self.state["sleeper_bottom"])[0]
+        return stage_scene(self.doc, self.c, tables, sleeper, self.state["load_start"] if loaded else None, center,
+                           1.0 if loaded else self.c["prep_stiffness_factor"])
+
+    def open_base(self, sim, scene, mid_stage):
+        """A two-sided base: a sphere may pass it, so no domain check there, and a sphere on the
+        plane overlaps it by its radius (ratio 1)."""
+        sim.guard.wall_side[sim.wall_index("base")] = 0
+        sim.max_overlap_ratio = max(sim.max_overlap_ratio, 1.0)
+
+    def bodies_note(self, sim):
+        return "" if sim.boxes is None else f", sleeper bottom {sim.boxes.center[0, 2] - sim.boxes.half[0, 2]:.4f} m"
 
     # ------------------------------------------------------------------ preparation in the box
     def pour(self, tables):
@@ -406,36 +436,20 @@ class BoxTestRun(PreparedRun):
         tables, removed = cut(self.c, tables, h2)
         return tables, f"removed {removed} spheres above {h2} m"
 
-    def open_load_stage(self, stage, tables):
-        if stage == "stiffen":
-            c = self.c
-            return tables, f"stiffness x {c['prep_stiffness_factor']:g} -> x 1 over {c['stiffen_time']:g} s; settle"
-        self.state["load_start"] = float(self.meta["time"]) if self.meta else 0.0
-        return tables, ""
-
-    def stage_scene(self, stage, tables):
-        center = tables["boxes"]["center"][0] if "boxes" in tables else None
-        if center is None and self.state.get("sleeper_bottom") is not None:
-            center = sleeper_geometry(self.c, self.state["sleeper_bottom"])[0]
-        return stage_scene(self.doc, self.c, stage, tables, self.state["load_start"], center)
-
-    def prepare(self, stage, sim, scene, mid_stage):
-        super().prepare(stage, sim, scene, mid_stage)
-        if stage == "stiffen":  # the scale reached so far (the carried contacts hold it already)
-            sim.set_stiffness_scale(self.state["stiffness_scale"] / self.c["prep_stiffness_factor"])
-            sim.moving_boundaries = True  # stiffening raises the elastic energy: no energy-growth check
-        if self.c["base"] == "two_sided":  # a sphere may pass the base: no domain check there, and a sphere
-            sim.guard.wall_side[sim.wall_index("base")] = 0  # on the plane overlaps it by its radius (ratio 1)
-            sim.max_overlap_ratio = max(sim.max_overlap_ratio, 1.0)
-
-    def bodies_note(self, sim):
-        return "" if sim.boxes is None else f", sleeper bottom {sim.boxes.center[0, 2] - sim.boxes.half[0, 2]:.4f} m"
-
     # ------------------------------------------------------------------ stiffening
-    def program(self, stage, sim, scene):
-        return self.stiffen_program(sim) if stage == "stiffen" else super().program(stage, sim, scene)
+    def stiffen_stage(self):
+        """``stiffen`` (after a preparation at ``prep_stiffness_factor``): `stiffen_program`."""
+        c = self.c
 
-    def stiffen_program(self, sim):
+        def prepare(sim, scene, mid_stage):  # the scale reached so far (the carried contacts hold it already)
+            sim.set_stiffness_scale(self.state["stiffness_scale"] / c["prep_stiffness_factor"])
+            sim.moving_boundaries = True  # stiffening raises the elastic energy: no energy-growth check
+
+        note = f"stiffness x {c['prep_stiffness_factor']:g} -> x 1 over {c['stiffen_time']:g} s; settle"
+        return Stage("stiffen", self.stage_scene, self.stiffen_program, open=lambda tables: (tables, note),
+                     prepare=prepare, close=self.close_stiffen, record=self.stage_record)
+
+    def stiffen_program(self, sim, scene):
         """Every ``check_every`` steps the stiffness scale s = f^(1 − t'/T) (t' since the stage
         started, f = ``prep_stiffness_factor``, T = ``stiffen_time``; 1 from t' = T on): new contacts
         are made with it, existing ones have their k_n, k_s times s/s_before (their tangential
@@ -451,7 +465,7 @@ class BoxTestRun(PreparedRun):
                 state["stiffness_scale"] = s
                 sim.update_dt(force=True)
             if run["output_every"] and sim.step % run["output_every"] == 0:
-                self.prep.append(self.prep_sample(sim, "stiffen"))
+                self.prep.append(self.prep_sample(sim))
             self.snapshot(sim)
 
         def settled(sim):
@@ -460,17 +474,25 @@ class BoxTestRun(PreparedRun):
 
         return on_step, settled, every, t_end
 
-    def close_stage(self, stage, sim):
-        super().close_stage(stage, sim)
-        if stage == "stiffen":
-            ratio = observables.unbalanced_force(sim)
-            if self.state["stiffness_scale"] != 1.0 or ratio >= self.c["settle_ratio"]:
-                self.loop.log(f"warning: stage stiffen reached stiffen_time + settle_max_time with stiffness scale "
-                              f"{self.state['stiffness_scale']:g} and unbalanced force ratio {ratio:.3g}; going on")
-            self.prep.append(self.prep_sample(sim, stage))
+    def close_stiffen(self, sim):
+        self.stage_done(sim, "stiffen")
+        self.first_load_row(sim)
+        ratio = observables.unbalanced_force(sim)
+        if self.state["stiffness_scale"] != 1.0 or ratio >= self.c["settle_ratio"]:
+            self.loop.log(f"warning: stage stiffen reached stiffen_time + settle_max_time with stiffness scale "
+                          f"{self.state['stiffness_scale']:g} and unbalanced force ratio {ratio:.3g}; going on")
+        self.prep.append(self.prep_sample(sim))
 
     # ------------------------------------------------------------------ cyclic loading
-    def load_program(self, stage, sim, scene):
+    def open_load(self, tables):
+        self.state["load_start"] = float(self.meta["time"]) if self.meta else 0.0
+        return tables, ""
+
+    def first_load_row(self, sim):
+        """The first row of the load record: the sleeper where cycling starts."""
+        self.series.append(load_sample(sim, sim.boxes.center[0], load=self.c["f_min"]))
+
+    def load_program(self, sim, scene):
         c, state, run = self.c, self.state, self.run_cfg
         self.recorder = rec = CycleRecorder(scene.boxes.loads[0])
         if state["recorder"] is not None:
@@ -498,10 +520,6 @@ class BoxTestRun(PreparedRun):
             1,
             state["load_start"] + c["cycles"] / c["frequency"],
         )
-
-    def after_stage(self, stage, sim):
-        if stage == self.STAGES[-2]:  # the first row of the load record: the sleeper where cycling starts
-            self.series.append(load_sample(sim, sim.boxes.center[0], load=self.c["f_min"]))
 
     def finish(self, sim, wall_s):
         finish(self.out, self.results, sim, self.state, self.c, self.path, self.comm.size, wall_s, self.STAGES)

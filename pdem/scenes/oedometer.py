@@ -10,7 +10,7 @@ footnote 1). The platen is a rigid box (`pdem.boxes`, z translation only) of ``p
 only spheres, so its corners outside the cylinder touch nothing).
 
 A scene file with an ``[oedometer]`` table (keys and defaults in `DEFAULTS`; the preparation
-pipeline's keys in `pdem.driver.preparation.PREPARATION_DEFAULTS`) runs the stages
+pipeline's keys in `pdem.scenes.common.preparation.PREPARATION_DEFAULTS`) runs the stages
 
 1. ``pour``     fill: a seeded cloud of grains on a cubic lattice inside the cylinder and collar,
                 bottom up until its solid volume is ``overfill`` × ``packing_fraction`` × the
@@ -46,6 +46,7 @@ any), "peak" (at F_max) and "unloaded" (at the end), and every ``run.fragments_e
 the analysis of `analysis.oedometer` in ``analysis/`` (force–displacement PNG, loading and
 unloading stiffness, grading curves and breakage indices) and ``summary.txt`` with the timing.
 """
+from dataclasses import replace
 from math import cos, pi
 
 import numpy as np
@@ -55,15 +56,15 @@ from ..bonds import touching_pairs
 from ..config import CLUMP_KEYS, check_keys, grain_shape, run_settings, scene_from_dict
 from ..driver import observables
 from ..driver.fragments import FragmentRecorder
-from ..driver.preparation import PREPARATION_DEFAULTS, PREPARATION_STAGES, PreparedRun, check_preparation, \
-    plot_preparation
 from ..driver.results import series_writer, write_root_attrs
-from ..driver.stages import append_bodies, append_tables, check_no_steps, clump_tables, empty_tables, \
+from ..driver.stages import Stage, append_bodies, append_tables, check_no_steps, clump_tables, empty_tables, \
     next_free_clump, remove_above
 from ..errors import InputError
 from ..generators import sphere_radii
 from ..loads import Haversine
 from ..validate import boolean, number
+from .common.preparation import PREPARATION_DEFAULTS, PREPARATION_STAGES, PreparedRun, check_preparation, \
+    plot_preparation, pour_stage, refill_stage, settle_stage, vibrate_stage
 
 STAGES = PREPARATION_STAGES + ("load",)
 # [oedometer] keys and defaults (SPEC.md 2.2, thesis tables 4.1, 4.8, 4.15; stiffness in [materials])
@@ -262,21 +263,22 @@ def base_scene(doc):
     return scene_from_dict(base)
 
 
-def stage_scene(doc, c, stage, tables, load_start=None, platen_z=None, collar_top=None):
-    """The `Scene` of ``stage`` holding the bodies of ``tables``: the base, the wall (and the
-    collar while pouring, up to ``collar_top`` [m]), the platen from ``refill`` on (loaded in ``load``)."""
+def stage_scene(doc, c, tables, collar_top=None, platen=True, load_start=None, platen_z=None):
+    """The `Scene` of a stage holding the bodies of ``tables``: the base, the wall (and the
+    collar up to ``collar_top`` [m] if given: while pouring), the platen if ``platen`` (from
+    ``refill`` on; loaded from ``load_start`` [s] if given: stage ``load``)."""
     scene = base_scene(doc)
     wm = c["wall_material"]
     scene.add_wall("z", 0.0, wm, sense=1, name="base")
     for k, tri in enumerate(ring_facets(0.5 * c["diameter"], c["facets"], 0.0, c["height"])):
         scene.add_facet(tri, wm, name=f"wall_{k}")
-    if stage == "pour" and collar_top is not None and collar_top > c["height"]:
+    if collar_top is not None and collar_top > c["height"]:
         for k, tri in enumerate(ring_facets(0.5 * c["diameter"], c["facets"], c["height"], collar_top)):
             scene.add_facet(tri, wm, name=f"collar_{k}")
-    if STAGES.index(stage) >= STAGES.index("refill"):
+    if platen:
         center = platen_center(c, c["height"]) if platen_z is None else np.array([0.0, 0.0, platen_z])
         load = (Haversine(c["f_min"], c["f_max"], 1.0 / c["load_time"], 1, start=load_start, label="oedometer")
-                if stage == "load" else None)
+                if load_start is not None else None)
         r = 0.5 * c["diameter"]
         scene.add_box(center, (r, r, 0.5 * c["platen_thickness"]), c["platen_material"], c["platen_mass"],
                       blocked="xyXYZ", load=load, damping=scene.settings["damping"], name="platen")
@@ -308,7 +310,7 @@ def check(doc):
         sphere_fill(c, c["seed"])
     else:  # and make clumps (mass model, bonds)
         clump_tables(base_scene(doc), grain_fill(c, c["seed"])[:1], c["ballast_material"], 0, 0, **clump_options(c))
-    stage_scene(doc, c, "load", empty_tables(), 0.0, None)
+    stage_scene(doc, c, empty_tables(), load_start=0.0)
 
 
 def run(path, doc, out_dir, comm, steps=None, fresh=False):
@@ -318,15 +320,25 @@ def run(path, doc, out_dir, comm, steps=None, fresh=False):
 
 
 class OedometerRun(PreparedRun):
-    """One oedometer test on this process's ranks: the preparation pipeline in the cylinder, the
+    """One oedometer test on this process's ranks: the preparation stages in the cylinder, the
     load stage, its records (results.h5, fragments) and the finishing analysis."""
 
     NAME = "oedometer"
-    STAGES = STAGES
 
     def __init__(self, path, doc, out_dir, comm, fresh):
         self.c = settings(doc)
         super().__init__(path, doc, out_dir, comm, fresh)
+
+    def stage_list(self):
+        vibrated = "vibrated" if self.c["vibration_time"] > 0 else None
+        pour = pour_stage(self, self.pour_scene, self.pour, at_rest=self.poured)
+        return [replace(pour, program=self.boosted(pour.program)).then(prepare=self.boost_bonds,
+                                                                         close=self.end_bond_boost),
+                refill_stage(self, self.stage_scene, self.refill).then(close=self.fragments_at("initial")),
+                vibrate_stage(self, self.stage_scene).then(close=self.fragments_at(vibrated)),
+                settle_stage(self, self.stage_scene).then(close=self.first_load_row),
+                Stage("load", self.load_scene, self.load_program, open=self.open_load, close=self.close_load,
+                      record=self.stage_record)]
 
     def initial_state(self):
         return {"load_start": None, "reference": None, "peak_recorded": False, "collar_top": None,
@@ -379,10 +391,10 @@ class OedometerRun(PreparedRun):
         kind = "breakable" if g["breakable"] else "rigid"
         return tables, f"poured {len(grains)} {kind} clumps of {len(g['member_radii'])} spheres"
 
-    def prepare(self, stage, sim, scene, mid_stage):
-        super().prepare(stage, sim, scene, mid_stage)
+    def boost_bonds(self, sim, scene, mid_stage):
+        """At the start of the pour: bond strengths times ``bond_boost`` (thesis 4.5)."""
         c = self.c
-        if stage == "pour" and not mid_stage and c["bond_boost"] != 1.0:
+        if not mid_stage and c["bond_boost"] != 1.0:
             sim.scale_bond_strength(c["bond_boost"])
             self.state["bond_boost_on"] = True
             self.loop.log(f"bond strengths x {c['bond_boost']:g} until t = {c['bond_boost_time']:g} s "
@@ -395,18 +407,23 @@ class OedometerRun(PreparedRun):
             self.state["bond_boost_on"] = False
             self.loop.log(f"bond strengths returned at t = {sim.time:.4g} s, step {sim.step}")
 
-    def program(self, stage, sim, scene):
-        on_step, until, every, t_end = super().program(stage, sim, scene)
-        if stage != "pour" or not self.state["bond_boost_on"]:
-            return on_step, until, every, t_end
-        t_back = self.state["stage_t0"] + self.c["bond_boost_time"]
+    def boosted(self, program):
+        """The pour's ``program`` that returns the bonds to their strength ``bond_boost_time``
+        [s] into the stage."""
+        def boosted_program(sim, scene):
+            on_step, until, every, t_end = program(sim, scene)
+            if not self.state["bond_boost_on"]:
+                return on_step, until, every, t_end
+            t_back = self.state["stage_t0"] + self.c["bond_boost_time"]
 
-        def boosted_step(sim):
-            if self.state["bond_boost_on"] and sim.time >= t_back:
-                self.end_bond_boost(sim)
-            on_step(sim)
+            def boosted_step(sim):
+                if self.state["bond_boost_on"] and sim.time >= t_back:
+                    self.end_bond_boost(sim)
+                on_step(sim)
 
-        return boosted_step, until, every, t_end
+            return boosted_step, until, every, t_end
+
+        return boosted_program
 
     def refill(self, tables):
         h = self.c["height"]
@@ -414,44 +431,53 @@ class OedometerRun(PreparedRun):
         tables.pop("facets", None)  # the collar goes: the wall's facets (the first ones) are fixed, built anew
         return tables, f"removed {removed} spheres above {h} m (whole grains), removed the collar, placed the platen"
 
-    def open_load_stage(self, stage, tables):
-        self.state["load_start"] = float(self.meta["time"]) if self.meta else 0.0
-        return tables, ""
+    def pour_scene(self, tables):
+        return stage_scene(self.doc, self.c, tables, collar_top=self.state["collar_top"], platen=False)
 
-    def stage_scene(self, stage, tables):
+    def stage_scene(self, tables):
         z = float(tables["boxes"]["center"][0][2]) if "boxes" in tables else None
-        return stage_scene(self.doc, self.c, stage, tables, self.state["load_start"], z, self.state["collar_top"])
+        return stage_scene(self.doc, self.c, tables, platen_z=z)
 
-    def bodies_settled(self, sim):
+    def load_scene(self, tables):
+        z = float(tables["boxes"]["center"][0][2]) if "boxes" in tables else None
+        return stage_scene(self.doc, self.c, tables, load_start=self.state["load_start"], platen_z=z)
+
+    def poured(self, sim):
         """The pour ends only after 1.5 × the time a grain needs to fall from the top of the
         collar, sqrt(2 h/((1 − λ_D) g)) (Cundall damping slows a free fall): before, a few hard
         impacts make the unbalanced-force ratio small while most grains are still in the air."""
-        if self.state["stage"] != 0:
-            return True
         g = float(np.linalg.norm(sim.gravity)) * (1.0 - float(sim.damping))
         return g <= 0.0 or sim.time - self.state["stage_t0"] >= 1.5 * (2.0 * self.state["collar_top"] / g) ** 0.5
 
     def bodies_note(self, sim):
         return "" if sim.boxes is None else f", platen bottom {sim.boxes.center[0, 2] - sim.boxes.half[0, 2]:.4f} m"
 
-    def after_stage(self, stage, sim):
-        if stage == "pour":  # a pour shorter than bond_boost_time
-            self.end_bond_boost(sim)
-        if self.fragments is not None:
-            label = {"refill": "initial", "load": "unloaded"}.get(stage)
-            if stage == "vibrate" and self.c["vibration_time"] > 0:
-                label = "vibrated"
-            if label:
+    def fragments_at(self, label):
+        """A stage's closing action: the fragment record ``label`` (breakable grains; none if
+        ``label`` is None)."""
+        def record(sim):
+            if self.fragments is not None and label:
                 self.fragments.record(sim, label)
-        every = self.run_cfg["output_every"]
-        if stage == "load" and not (every and sim.step % every == 0):  # the last row: the end of unloading
-            self.series.append(load_sample(sim, self.state["reference"]))
-        if stage == "settle":  # the first row of the load record: the platen where loading starts
-            self.state["reference"] = float(sim.boxes.center[0, 2])
-            self.series.append(load_sample(sim, self.state["reference"], load=self.c["f_min"]))
+        return record
+
+    def first_load_row(self, sim):
+        """The first row of the load record: the platen where loading starts."""
+        self.state["reference"] = float(sim.boxes.center[0, 2])
+        self.series.append(load_sample(sim, self.state["reference"], load=self.c["f_min"]))
 
     # ------------------------------------------------------------------ loading
-    def load_program(self, stage, sim, scene):
+    def open_load(self, tables):
+        self.state["load_start"] = float(self.meta["time"]) if self.meta else 0.0
+        return tables, ""
+
+    def close_load(self, sim):
+        self.stage_done(sim, "load")
+        self.fragments_at("unloaded")(sim)
+        every = self.run_cfg["output_every"]
+        if not (every and sim.step % every == 0):  # the last row: the end of unloading
+            self.series.append(load_sample(sim, self.state["reference"]))
+
+    def load_program(self, sim, scene):
         c, state, run = self.c, self.state, self.run_cfg
         t_peak = state["load_start"] + 0.5 * c["load_time"]
         t_end = state["load_start"] + c["load_time"]

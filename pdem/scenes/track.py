@@ -24,7 +24,7 @@ and units in `DEFAULTS`, `TRAFFIC_DEFAULTS`; SI) describes:
 - The rail is not a body: a rigid sleeper that cannot rotate carries the rail-seat load
   wherever it acts, so the rail adds only its mass.
 
-Stages: the preparation pipeline shared with the box test (`pdem.driver.preparation`), in
+Stages: the preparation pipeline shared with the box test (`pdem.scenes.common.preparation`), in
 the thesis's order for the track (compact the bed, then cut it and place the sleeper on it):
 
 1. ``pour``     a loose cloud fills the box x in [0, L], |y| <= y_toe (the toe of the slope)
@@ -60,21 +60,22 @@ import json
 import os
 import shutil
 import tomllib
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 
 from ..config import check_keys, run_settings, scene_from_dict
 from ..driver import observables
-from ..driver.preparation import PREPARATION_DEFAULTS, PreparedRun, add_cloud, check_preparation, plot_preparation, \
-    remove_where
 from ..driver.results import write_root_attrs
-from ..driver.stages import empty_tables
-from ..driver.track_record import PassageTracker, TrackWriter, sleeper_sample, write_force_record, write_sleepers
+from ..driver.stages import Stage, empty_tables
 from ..errors import InputError
 from ..io.checkpoint import CheckpointError, read_checkpoint
 from ..loads import ETA_ZERO, AxleTrain, Haversine
 from ..validate import boolean, number
+from .common.preparation import PREPARATION_DEFAULTS, PreparedRun, add_cloud, check_preparation, plot_preparation, \
+    pour_stage, refill_stage, remove_where, settle_stage, vibrate_stage
+from .track_record import PassageTracker, TrackWriter, sleeper_sample, write_force_record, write_sleepers
 
 PREPARATION = ("pour", "vibrate", "settle", "refill")  # the pipeline's stages: compacted before the cut
 STAGES = PREPARATION + ("traffic",)
@@ -295,10 +296,10 @@ def slope_facets(c):
 
 
 # ---------------------------------------------------------------------------- stage scenes
-def stage_scene(doc, c, stage, tables, loads=None, centres=None):
-    """The `Scene` of ``stage`` holding the spheres of ``tables``: the file's materials and
-    settings, the subgrade, end and side walls, from ``refill`` on the slope facets and the
-    sleepers (at ``centres`` if given; loaded by ``loads`` in ``traffic``)."""
+def stage_scene(doc, c, tables, sleepers=True, loads=None, centres=None):
+    """The `Scene` of a stage holding the spheres of ``tables``: the file's materials and
+    settings, the subgrade, end and side walls, and if ``sleepers`` (from ``refill`` on) the
+    slope facets and the sleepers (at ``centres`` if given; loaded by ``loads`` in ``traffic``)."""
     base = {k: v for k, v in doc.items() if k in ("simulation", "materials")}
     base["simulation"] = {"slab_axis": "x", **base.get("simulation", {}), "allow_initial_overlap": True}
     scene = scene_from_dict(base)
@@ -309,7 +310,7 @@ def stage_scene(doc, c, stage, tables, loads=None, centres=None):
     scene.add_wall("x", g["length"], wm, sense=-1, name="x_max")
     scene.add_wall("y", g["y_lo"], wm, sense=1, name="symmetry" if c["half"] else "y_min")
     scene.add_wall("y", g["y_toe"], wm, sense=-1, name="y_max")
-    if STAGES.index(stage) >= STAGES.index("refill"):
+    if sleepers:
         for k, tri in enumerate(slope_facets(c)):
             scene.add_facet(tri, wm, name=f"slope_{k}")
         start, half = sleeper_boxes(c)
@@ -348,7 +349,7 @@ def check(doc):
     t = traffic_settings(doc, c)
     run_settings(doc)
     loads = traffic_loads(c, t, 0.0)[0] if t is not None else None
-    stage_scene(doc, c, "traffic", empty_tables(), loads)
+    stage_scene(doc, c, empty_tables(), loads=loads)
 
 
 def run(path, doc, out_dir, comm, steps=None, fresh=False):
@@ -378,18 +379,29 @@ class TrackRun(PreparedRun):
     prepared bed came from."""
 
     NAME = "track"
-    STAGES = STAGES
 
     def __init__(self, path, doc, out_dir, comm, fresh):
         self.c = track_settings(doc)
         self.t = traffic_settings(doc, self.c)
-        if self.t is None:
-            self.STAGES = PREPARATION
         self.tracker, self.writer, self.loads_report = None, None, None
         self.snapped = None  # the step of the last snapshot written with a force record
         super().__init__(path, doc, out_dir, comm, fresh)
         self.step0 = int(self.meta["step"]) if self.meta else 0  # where this invocation starts
         self.rebuilds0 = int(self.meta.get("n_rebuilds", 0)) if self.meta else 0
+
+    def stage_list(self):
+        """`PREPARATION` (compacted before the cut; the prepared bed saved after it), then
+        ``traffic`` if a [traffic] table is given."""
+        bed = self.bed_scene
+        stages = [pour_stage(self, bed, self.pour, at_rest=self.bodies_settled),
+                  vibrate_stage(self, bed),
+                  settle_stage(self, bed, at_rest=self.bodies_settled),
+                  replace(refill_stage(self, self.stage_scene, self.refill, at_rest=self.bodies_settled),
+                          saved=self.save_prepared_bed)]
+        if self.t is not None:
+            stages.append(Stage("traffic", self.traffic_scene, self.load_program, open=self.open_traffic,
+                                close=lambda sim: self.stage_done(sim, "traffic"), record=self.stage_record))
+        return stages
 
     def initial_state(self):
         return {"traffic_start": None, "tracker": None, "prepared_from": None, "forces": []}
@@ -456,12 +468,16 @@ class TrackRun(PreparedRun):
                         f"the slopes), cleared {c['sleepers']} sleeper slot(s) ({slots} spheres), placed the sleepers "
                         "and the slope facets")
 
-    def stage_scene(self, stage, tables):
+    def bed_scene(self, tables):
+        """The scene before the cut: no sleepers yet."""
+        return stage_scene(self.doc, self.c, tables, sleepers=False)
+
+    def stage_scene(self, tables, loads=None):
         centres = tables["boxes"]["center"] if "boxes" in tables else None
-        loads = None
-        if stage == "traffic":
-            loads = traffic_loads(self.c, self.t, self.state["traffic_start"])[0]
-        return stage_scene(self.doc, self.c, stage, tables, loads, centres)
+        return stage_scene(self.doc, self.c, tables, loads=loads, centres=centres)
+
+    def traffic_scene(self, tables):
+        return self.stage_scene(tables, traffic_loads(self.c, self.t, self.state["traffic_start"])[0])
 
     def bodies_settled(self, sim):
         """The sleepers at rest: on every one, |net force| / weight and |velocity| / sqrt(g r)
@@ -479,19 +495,18 @@ class TrackRun(PreparedRun):
         return (f", sleeper bases {base.min():.4f} .. {base.max():.4f} m (net force/weight {f:.2g}, "
                 f"speed/sqrt(gr) {v:.2g})")
 
-    def end_stage(self, stage, sim, wall0, **record):
-        written = super().end_stage(stage, sim, wall0, **record)
-        if stage == PREPARATION[-1] and self.comm.rank == 0:  # the prepared bed: a copy of this checkpoint
+    def save_prepared_bed(self, written):
+        """The prepared bed: a copy of the checkpoint at the end of the preparation."""
+        if self.comm.rank == 0:
             tmp = self.out / (PREPARED + ".tmp")
             shutil.copyfile(written, tmp)
             os.replace(tmp, self.out / PREPARED)
             self.loop.log(f"prepared bed: {self.out / PREPARED} (start load programs from it with "
                           f"[traffic] prepared = \"{self.out}\")")
         self.comm.barrier()
-        return written
 
     # ------------------------------------------------------------------ traffic
-    def open_load_stage(self, stage, tables):
+    def open_traffic(self, tables):
         self.state["traffic_start"] = float(self.meta["time"]) if self.meta else 0.0
         return tables, f"traffic: {self.traffic_text()}"
 
@@ -504,7 +519,7 @@ class TrackRun(PreparedRun):
                 f"{t['speed']:g} m/s, axles at {t['axles']} m, from x = {t['x_from']:.3f} to {t['x_to']:.3f} m, "
                 f"rest {t['rest_time']:g} s; rail-seat shares with L = {t['characteristic_length']:.4f} m")
 
-    def load_program(self, stage, sim, scene):
+    def load_program(self, sim, scene):
         state, run = self.state, self.run_cfg
         t0 = state["traffic_start"]
         _, ends, peaks = traffic_loads(self.c, self.t, t0)
@@ -567,8 +582,8 @@ class TrackRun(PreparedRun):
         if self.comm.rank == 0 and sim.boxes is not None:
             write_sleepers(self.out, sim.step, sim.time, sim.boxes.center, sim.boxes.half)
 
-    def stage_record(self, stage, sim):
-        return {**super().stage_record(stage, sim), "balance": observables.rank_loads(sim)["imbalance"]}
+    def stage_record(self, sim):
+        return {**super().stage_record(sim), "balance": observables.rank_loads(sim)["imbalance"]}
 
     # ------------------------------------------------------------------ end of the run
     def collect(self, sim):

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from pdem import InputError, Scene
-from pdem.driver.cycles import CycleRecorder
+from pdem.scenes.cycles import CycleRecorder
 from pdem.loads import Constant, Haversine
 from pdem.driver.observables import box_forces, box_positions
 

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 import tomllib
 
-from pdem.driver.cycles import CycleRecorder
+from pdem.scenes.cycles import CycleRecorder
 from pdem.driver.observables import box_face_forces
 from pdem.errors import InputError
 from pdem.loads import HalfSine, Haversine

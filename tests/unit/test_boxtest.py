@@ -1,11 +1,11 @@
-"""Pieces of the box-test pipeline (`pdem.scenes.box_test`, `pdem.driver.preparation`) without running it:
+"""Pieces of the box-test pipeline (`pdem.scenes.box_test`, `pdem.scenes.common.preparation`) without running it:
 trimming, cloud sizing,
 sleeper placement, and friction lowered and restored for the vibration stage (Ip2 again)."""
 from math import pi, tan
 
 import numpy as np
 
-from pdem.driver.preparation import cloud, cloud_count
+from pdem.scenes.common.preparation import cloud, cloud_count
 from pdem.driver.stages import remove_above
 from pdem.scenes.box_test import DEFAULTS, sleeper_geometry
 from pdem.scene import Scene

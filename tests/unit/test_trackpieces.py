@@ -1,4 +1,4 @@
-"""Pieces of the track section (`pdem.scenes.track`, `pdem.driver.track_record`) without running
+"""Pieces of the track section (`pdem.scenes.track`, `pdem.scenes.track_record`) without running
 it: the bed's shape and the sleeper slots, the gap under a box, the passage tracker against the
 analysis package's own passage table, the results writer's restart cut, and one-line errors."""
 import copy
@@ -10,7 +10,7 @@ import pytest
 from analysis import schema
 from analysis.track import passage_table
 from pdem.driver import observables
-from pdem.driver.track_record import PassageTracker, TrackWriter, write_sleepers
+from pdem.scenes.track_record import PassageTracker, TrackWriter, write_sleepers
 from pdem.errors import InputError
 from pdem.facets import facet_row
 from pdem.parallel.comm import SerialComm

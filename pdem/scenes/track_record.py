@@ -25,8 +25,8 @@ import h5py
 import numpy as np
 from analysis import schema
 
-from . import observables
-from .results import series_writer
+from ..driver import observables
+from ..driver.results import series_writer
 
 EVERY = 10  # samples buffered before /series and /track are written
 

@@ -1,16 +1,17 @@
-"""The preparation pipeline of the staged scenes: pour, cut, place rigid bodies and refill,
-vibrate, settle. One implementation for every scene that prepares a ballast bed (the box test,
-`pdem.scenes.box_test`; the track section, `pdem.scenes.track`): a scene says *where* (the
-clouds it pours, what it cuts, which rigid bodies it places), this module says *how*.
+"""The preparation of a ballast bed in stages: pour, cut, place rigid bodies and refill,
+vibrate, settle. One implementation for every scene that prepares one (the box test,
+`pdem.scenes.box_test`; the oedometer, `pdem.scenes.oedometer`; the track section,
+`pdem.scenes.track`): a scene says *where* (the clouds it pours, what it cuts, which rigid
+bodies it places, the `Scene` of each stage), this module says *how*, as `Stage` factories
+(`pour_stage`, `refill_stage`, `vibrate_stage`, `settle_stage`) that a `PreparedRun` lists
+before its own loading stages:
 
-Stages (`PREPARATION_STAGES`), then the scene's own loading stages:
-
-1. ``pour``     ``pour(tables)``: seeded loose clouds (`add_cloud`) fill the scene's mould;
-                settle.
-2. ``refill``   ``refill(tables)``: the scene cuts the bed (e.g. `remove_above` the sleeper
-                bottom), places its rigid bodies (they appear in its ``stage_scene`` from this
-                stage on) and may pour more clouds beside them; settle.
-3. ``vibrate``  ``trim(tables)``: the scene removes what sticks out of the final shape; then
+1. ``pour``     the scene's fill (tables → (tables, note)): seeded loose clouds (`add_cloud`)
+                fill the scene's mould; settle.
+2. ``refill``   the scene's cut (tables → (tables, note)): it cuts the bed (e.g.
+                `remove_above` the sleeper bottom), places its rigid bodies (they appear in its
+                stage scenes from this stage on) and may pour more clouds beside them; settle.
+3. ``vibrate``  the scene's trim: it removes what sticks out of the final shape; then
                 shake for ``vibration_time`` [s] with every friction angle times
                 ``vibration_friction_factor`` (thesis 4.2: tenfold lower; with
                 ``vibration_friction_contacts`` = "new" only for the contacts made while
@@ -26,7 +27,7 @@ as the thesis did: pour, vibrate, settle, refill); what each stage does stays th
 
 "Settle" runs until Yade's unbalanced-force ratio falls below ``settle_ratio`` (checked every
 ``check_every`` steps, not before ``settle_min_time`` [s] into the stage) and, if the scene asks
-(`PreparedRun.bodies_settled`), its rigid bodies are at rest, or until ``settle_max_time`` [s]
+(``at_rest`` of the stage factories), its rigid bodies are at rest, or until ``settle_max_time`` [s]
 has passed (then a warning line is printed and the pipeline goes on).
 
 Keys and defaults of the pipeline: `PREPARATION_DEFAULTS` (a scene's table holds them next to
@@ -46,16 +47,17 @@ from math import cos, pi, sin
 import numpy as np
 from analysis.schema import PREPARATION_SERIES
 
-from ..errors import InputError
-from ..generators import loose_cloud
-from ..validate import number
-from . import observables
-from .plain import write_snapshot
-from .plots import plot_energy, save_figure, series_figure
-from .results import series_writer
-from .stages import StagedRun, append_bodies, append_tables, clump_tables, next_free_clump
+from ...driver import observables
+from ...driver.plain import write_snapshot
+from ...driver.plots import plot_energy, save_figure, series_figure
+from ...driver.results import series_writer
+from ...driver.stages import Stage, StagedRun, append_bodies, append_tables, clump_tables, keep_tables, \
+    next_free_clump
+from ...errors import InputError
+from ...generators import loose_cloud
+from ...validate import number
 
-PREPARATION_STAGES = ("pour", "refill", "vibrate", "settle")
+PREPARATION_STAGES = ("pour", "refill", "vibrate", "settle")  # the usual order
 # keys of the pipeline in a scene's table, with defaults (SI; thesis 4.2 and table 5.1)
 PREPARATION_DEFAULTS = {
     "radius": 0.01625, "radius_spread": 0.0, "seed": 1,
@@ -131,8 +133,8 @@ def add_grain_cloud(tables, doc, c, lo_xy, hi_xy, z0, volume, seed, first_gid, w
     [m³] at the packing fraction times the overfill (by the members' volume), each turned at
     random (`pdem.clump_generators.grain_cloud`), on a lattice from z0 up; member gids from
     ``first_gid``, clump ids after the tables' largest."""
-    from ..clump_generators import grain_cloud
-    from ..config import scene_from_dict
+    from ...clump_generators import grain_cloud
+    from ...config import scene_from_dict
 
     g = c["grain"]
     pos, radius = g["members"], g["member_radii"]
@@ -167,34 +169,16 @@ def shaking(c, t):
 
 
 # ---------------------------------------------------------------------------- the run
+def always(sim):
+    """Rigid bodies not checked: a settle stage ends on the spheres' ratio alone."""
+    return True
+
+
 class PreparedRun(StagedRun):
-    """A `StagedRun` whose first stages are `PREPARATION_STAGES` (in the scene's order);
-    ``STAGES`` = those + the scene's loading stages. ``self.c`` is the scene's table with the pipeline's keys checked.
-
-    The scene implements `pour`, `refill`, `trim` (table operations of the preparation),
-    `stage_scene`, and for its loading stages `open_load_stage`, `load_program`; optionally
-    `open_results`/`close_results` (its results files), `after_stage` (records at a stage end),
-    `bodies_note` (its rigid bodies in the stage-end line) and `finish`."""
-
-    # ------------------------------------------------------------------ scene hooks
-    def pour(self, tables):
-        """(tables, note): the first fill."""
-        raise NotImplementedError
-
-    def refill(self, tables):
-        """(tables, note): cut, place the rigid bodies, pour beside them."""
-        raise NotImplementedError
-
-    def trim(self, tables):
-        """(tables, note): remove what sticks out before vibrating."""
-        return tables, ""
-
-    def open_load_stage(self, stage, tables):
-        return tables, ""
-
-    def load_program(self, stage, sim, scene):
-        """`StagedRun.program` of a loading stage."""
-        raise NotImplementedError
+    """A `StagedRun` whose first stages prepare a bed (the factories below, in the scene's
+    order): ``self.c`` is the scene's table with the pipeline's keys checked. It writes
+    ``preparation.h5`` and the snapshots. A scene may add `open_results`/`close_results` (its
+    results files), `bodies_note` (its rigid bodies in the stage-end line) and `after_snapshot`."""
 
     def open_results(self):
         """Open the scene's own results writers (after preparation.h5)."""
@@ -202,20 +186,12 @@ class PreparedRun(StagedRun):
     def close_results(self):
         """Close them."""
 
-    def after_stage(self, stage, sim):
-        """Records of the scene at the end of ``stage`` (after the preparation row)."""
-
     def bodies_note(self, sim):
         """Text appended to the stage-end line about the rigid bodies (e.g. the sleeper bottom)."""
         return ""
 
     def after_snapshot(self, sim):
         """Written with every snapshot of the spheres (e.g. the rigid bodies)."""
-
-    def bodies_settled(self, sim):
-        """Whether the scene's rigid bodies are at rest too (a settle stage ends only then);
-        default: not checked (the box test ends its stages on the spheres' ratio alone)."""
-        return True
 
     def sleeper_z(self, sim):
         """Mean centre height of the rigid bodies [m] (0 before they are placed: the results hold no
@@ -228,7 +204,10 @@ class PreparedRun(StagedRun):
             z += float(bx.center[k, 2])
         return z / len(bx)
 
-    # ------------------------------------------------------------------ StagedRun hooks
+    def stage_record(self, sim):
+        """The summary row's entries of every stage: the rigid bodies' mean centre height."""
+        return {"sleeper_z": None if sim.boxes is None else self.sleeper_z(sim)}
+
     def open_outputs(self):
         self.prep = series_writer(self.out / "preparation.h5", PREPARATION_SERIES, self.comm,
                                   restart_step=self.restart_step)
@@ -239,65 +218,31 @@ class PreparedRun(StagedRun):
         self.prep.close()
         self.close_results()
 
-    def open_stage(self, stage, tables):
-        if stage == "pour":
-            return self.pour(tables)
-        if stage == "refill":
-            return self.refill(tables)
-        if stage == "vibrate":
-            return self.trim(tables)
-        if stage == "settle":
-            return tables, ""
-        return self.open_load_stage(stage, tables)
-
-    def prepare(self, stage, sim, scene, mid_stage):
-        if stage == "vibrate":
-            c = self.c
-            sim.set_friction_scale(c["vibration_friction_factor"], existing=c["vibration_friction_contacts"] == "all")
-            g = np.asarray(scene.settings["gravity"], np.float64)
-            sim.gravity = g + shaking(c, sim.time - self.state["stage_t0"])
-            sim.moving_boundaries = True  # the shaking does external work: no energy-growth check
-
-    def max_steps(self, stage):
-        return 0 if stage == "vibrate" and self.c["vibration_time"] == 0 else 10**15
-
-    def prep_sample(self, sim, stage):
+    def prep_sample(self, sim):
+        """A row of preparation.h5 in the running stage."""
         e = sim.energy()
-        return {"step": sim.step, "time": sim.time, "stage": self.STAGES.index(stage),
+        return {"step": sim.step, "time": sim.time, "stage": self.state["stage"],
                 "n_spheres": sim.comm.allreduce_sum_int(sim.particles.n_local),
                 "kinetic_energy": e["kinetic"] + e["rotational"], "unbalanced_force": observables.unbalanced_force(sim),
                 "contacts_per_particle": sim.contacts_per_particle(), "bed_top": observables.bed_top(sim),
                 "sleeper_z": self.sleeper_z(sim)}
 
-    def program(self, stage, sim, scene):
-        if stage not in PREPARATION_STAGES:
-            return self.load_program(stage, sim, scene)
-        c, state, run = self.c, self.state, self.run_cfg
-        t0 = state["stage_t0"]
-        if sim.step == 0:  # later stages start at the step of the row that ended the last one
-            self.prep.append(self.prep_sample(sim, stage))
+    def prep_rows(self, sim):
+        """The first preparation row (at step 0; later stages start at the step of the row that
+        ended the last one) and ``record(sim)``: a row every run.output_every steps and the
+        snapshots."""
+        every = self.run_cfg["output_every"]
+        if sim.step == 0:
+            self.prep.append(self.prep_sample(sim))
             if self.snaps is not None:
                 self.write_snapshot(sim)
-        g = np.asarray(scene.settings["gravity"], np.float64)
 
-        def on_step(sim):
-            if stage == "vibrate":
-                sim.gravity = g + shaking(c, sim.time - t0)
-            if run["output_every"] and sim.step % run["output_every"] == 0:
-                self.prep.append(self.prep_sample(sim, stage))
+        def record(sim):
+            if every and sim.step % every == 0:
+                self.prep.append(self.prep_sample(sim))
             self.snapshot(sim)
 
-        if stage == "vibrate":
-            t_end = t0 + c["vibration_time"]
-            return on_step, lambda sim: sim.time >= t_end, 1, t_end
-        t_end = t0 + c["settle_max_time"]
-
-        def settled(sim):
-            return sim.time >= t_end or (sim.time - t0 >= c["settle_min_time"]
-                                         and observables.unbalanced_force(sim) < c["settle_ratio"]
-                                         and self.bodies_settled(sim))
-
-        return on_step, settled, c["check_every"], t_end
+        return record
 
     def snapshot(self, sim, stage_end=False):
         """ParaView snapshot every run.snapshot_every steps and at the end of every stage."""
@@ -310,27 +255,87 @@ class PreparedRun(StagedRun):
         write_snapshot(self.snaps, sim)
         self.after_snapshot(sim)
 
-    def close_stage(self, stage, sim):
-        c, log = self.c, self.loop.log
-        ratio = observables.unbalanced_force(sim)
-        if stage in ("pour", "refill", "settle") and ratio >= c["settle_ratio"]:
-            log(f"warning: stage {stage} reached settle_max_time = {c['settle_max_time']} s with unbalanced force "
-                f"ratio {ratio:.3g} >= settle_ratio = {c['settle_ratio']}; going on")
-        elif stage in ("pour", "refill", "settle") and not self.bodies_settled(sim):
-            log(f"warning: stage {stage} reached settle_max_time = {c['settle_max_time']} s with the rigid bodies "
-                "not at rest; going on")
-        if stage == "vibrate":
-            sim.set_friction_scale(1.0, existing=c["vibration_friction_contacts"] == "all")
+    def stage_done(self, sim, name):
+        """The stage-end line and snapshot (every stage of a prepared run)."""
         top = observables.bed_top(sim)
-        log(f"stage {stage} done at t = {sim.time:.4f} s, step {sim.step}: unbalanced force ratio {ratio:.3g}, "
-            f"bed top {top:.4f} m" + self.bodies_note(sim))
+        self.loop.log(f"stage {name} done at t = {sim.time:.4f} s, step {sim.step}: unbalanced force ratio "
+                      f"{observables.unbalanced_force(sim):.3g}, bed top {top:.4f} m" + self.bodies_note(sim))
         self.snapshot(sim, stage_end=True)
-        if stage in PREPARATION_STAGES:
-            self.prep.append(self.prep_sample(sim, stage))
-        self.after_stage(stage, sim)
 
-    def stage_record(self, stage, sim):
-        return {"sleeper_z": None if sim.boxes is None else self.sleeper_z(sim)}
+
+# ---------------------------------------------------------------------------- the stages
+def settle_stage(run, scene, name="settle", open=keep_tables, at_rest=always):
+    """A stage ``name`` that opens with ``open`` (tables → (tables, note)) and settles: until the
+    unbalanced-force ratio is below ``settle_ratio`` and ``at_rest(sim)`` (the scene's rigid
+    bodies), not before ``settle_min_time`` [s], at most ``settle_max_time`` [s]."""
+    c = run.c
+
+    def program(sim, sc):
+        record = run.prep_rows(sim)
+        t0 = run.state["stage_t0"]
+        t_end = t0 + c["settle_max_time"]
+
+        def settled(sim):
+            return sim.time >= t_end or (sim.time - t0 >= c["settle_min_time"]
+                                         and observables.unbalanced_force(sim) < c["settle_ratio"] and at_rest(sim))
+
+        return record, settled, c["check_every"], t_end
+
+    def close(sim):
+        ratio = observables.unbalanced_force(sim)
+        if ratio >= c["settle_ratio"]:
+            run.loop.log(f"warning: stage {name} reached settle_max_time = {c['settle_max_time']} s with unbalanced "
+                         f"force ratio {ratio:.3g} >= settle_ratio = {c['settle_ratio']}; going on")
+        elif not at_rest(sim):
+            run.loop.log(f"warning: stage {name} reached settle_max_time = {c['settle_max_time']} s with the rigid "
+                         "bodies not at rest; going on")
+        run.stage_done(sim, name)
+        run.prep.append(run.prep_sample(sim))
+
+    return Stage(name, scene, program, open=open, close=close, record=run.stage_record)
+
+
+def pour_stage(run, scene, fill, at_rest=always):
+    """``pour``: the scene's first fill (``fill``: tables → (tables, note)), settled."""
+    return settle_stage(run, scene, "pour", fill, at_rest)
+
+
+def refill_stage(run, scene, refill, at_rest=always):
+    """``refill``: the scene cuts the bed, places its rigid bodies and pours beside them
+    (``refill``: tables → (tables, note)); settled."""
+    return settle_stage(run, scene, "refill", refill, at_rest)
+
+
+def vibrate_stage(run, scene, trim=keep_tables):
+    """``vibrate``: ``trim`` (tables → (tables, note)) removes what sticks out; then shake for
+    ``vibration_time`` [s] with the friction lowered (none if 0)."""
+    c = run.c
+    existing = c["vibration_friction_contacts"] == "all"
+
+    def prepare(sim, sc, mid_stage):
+        sim.set_friction_scale(c["vibration_friction_factor"], existing=existing)
+        sim.gravity = np.asarray(sc.settings["gravity"], np.float64) + shaking(c, sim.time - run.state["stage_t0"])
+        sim.moving_boundaries = True  # the shaking does external work: no energy-growth check
+
+    def program(sim, sc):
+        record = run.prep_rows(sim)
+        t0 = run.state["stage_t0"]
+        g = np.asarray(sc.settings["gravity"], np.float64)
+        t_end = t0 + c["vibration_time"]
+
+        def on_step(sim):
+            sim.gravity = g + shaking(c, sim.time - t0)
+            record(sim)
+
+        return on_step, lambda sim: sim.time >= t_end, 1, t_end
+
+    def close(sim):
+        sim.set_friction_scale(1.0, existing=existing)
+        run.stage_done(sim, "vibrate")
+        run.prep.append(run.prep_sample(sim))
+
+    return Stage("vibrate", scene, program, open=trim, prepare=prepare, close=close, record=run.stage_record,
+                 max_steps=0 if c["vibration_time"] == 0 else 10**15)
 
 
 def plot_preparation(h5_path, png_path, stages):

@@ -1,0 +1,1 @@
+"""What the scenes share: the preparation of a ballast bed in stages (`pdem.scenes.common.preparation`)."""
