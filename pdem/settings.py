@@ -52,10 +52,6 @@ class SimulationSettings:
             out["domain"] = [list(corner) for corner in self.domain]
         return out
 
-    def __getitem__(self, key):
-        """The setting called ``key`` as the scene file names it (``settings["damping"]``)."""
-        return self.as_dict()[key]
-
 
 def simulation_settings(*, dt, damping, gravity, skin, dt_safety, dt_interval, pwave_factor, check_interval,
                         max_overlap_ratio, energy_check, allow_initial_overlap, slab_axis, law, domain):

@@ -262,7 +262,7 @@ def stage_scene(doc, c, tables, sleeper=True, load_start=None, sleeper_center=No
         load = (WAVEFORMS[c["waveform"]](c["f_min"], c["f_max"], c["frequency"], c["cycles"], start=load_start,
                                          label="box_test") if load_start is not None else None)
         scene.add_box(center, half, c["sleeper_material"], c["sleeper_mass"], blocked="xyXYZ", load=load,
-                      damping=scene.settings["damping"], name="sleeper", members=c["sleeper_members"],
+                      damping=scene.settings.damping, name="sleeper", members=c["sleeper_members"],
                       member_radius=c["sleeper_member_radius"])
     scene.add_sphere_columns(tables["particles"])
     if "clumps" in tables:

@@ -281,7 +281,7 @@ def stage_scene(doc, c, tables, collar_top=None, platen=True, load_start=None, p
                 if load_start is not None else None)
         r = 0.5 * c["diameter"]
         scene.add_box(center, (r, r, 0.5 * c["platen_thickness"]), c["platen_material"], c["platen_mass"],
-                      blocked="xyXYZ", load=load, damping=scene.settings["damping"], name="platen")
+                      blocked="xyXYZ", load=load, damping=scene.settings.damping, name="platen")
     scene.add_sphere_columns(tables["particles"])
     if "clumps" in tables:
         scene.add_clump_tables(tables["clumps"], tables["clump_members"])

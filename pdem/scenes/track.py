@@ -317,7 +317,7 @@ def stage_scene(doc, c, tables, sleepers=True, loads=None, centres=None):
         at = start if centres is None else np.asarray(centres, float)
         for k in range(c["sleepers"]):
             scene.add_box(at[k], half, c["sleeper_material"], c["body_mass"], blocked=c["sleeper_blocked"],
-                          load=None if loads is None else loads[k], damping=scene.settings["damping"],
+                          load=None if loads is None else loads[k], damping=scene.settings.damping,
                           name=f"sleeper_{k}")
     scene.add_sphere_columns(tables["particles"])
     return scene

@@ -26,7 +26,7 @@ def test_settings_are_frozen_and_shared_by_scene_and_simulation():
     sim = sc.build()
     assert sim.settings is sc.settings and sim.dt == 1e-5
     assert sim.spec["settings"] == sc.settings.as_dict() and sim.spec["settings"]["dt"] == 1e-5
-    assert sc.settings["damping"] == sim.damping == 0.2
+    assert sc.settings.damping == sim.damping == 0.2
     assert "domain" not in sim.spec["settings"]  # only when declared: older specs stay as they were
 
 

@@ -314,13 +314,13 @@ def vibrate_stage(run, scene, trim=keep_tables):
 
     def prepare(sim, sc, mid_stage):
         sim.set_friction_scale(c["vibration_friction_factor"], existing=existing)
-        sim.gravity = np.asarray(sc.settings["gravity"], np.float64) + shaking(c, sim.time - run.state["stage_t0"])
+        sim.gravity = np.asarray(sc.settings.gravity, np.float64) + shaking(c, sim.time - run.state["stage_t0"])
         sim.moving_boundaries = True  # the shaking does external work: no energy-growth check
 
     def program(sim, sc):
         record = run.prep_rows(sim)
         t0 = run.state["stage_t0"]
-        g = np.asarray(sc.settings["gravity"], np.float64)
+        g = np.asarray(sc.settings.gravity, np.float64)
         t_end = t0 + c["vibration_time"]
 
         def on_step(sim):
