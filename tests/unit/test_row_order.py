@@ -80,6 +80,7 @@ def test_rows_in_cell_order_after_a_rebuild():
     assert not np.array_equal(p.gid[: p.n_local], np.arange(p.n_local))  # the packing was reordered
 
 
+@pytest.mark.jit
 @pytest.mark.parametrize("domain", [None, "slab"])
 @pytest.mark.slow  # runs the scene twice per domain
 def test_scrambled_rows_give_the_same_bits(domain):
@@ -103,6 +104,7 @@ def test_scrambled_rows_give_the_same_bits(domain):
     assert real > 20 and a.n_rebuilds > 100  # contacts carried through the scramble, many rebuilds
 
 
+@pytest.mark.jit
 def test_the_skin_changes_the_rebuilds_not_the_bits():
     """A thin skin (0.05 r: many more rebuilds, fewer candidate rows) and the default r/4 give the
     same trajectory by gid (jobs/box_test_full_10.toml runs at a 1 mm skin for speed)."""
@@ -118,6 +120,7 @@ def test_the_skin_changes_the_rebuilds_not_the_bits():
     assert len(a.kind("sphere_sphere").contacts.real_rows()) > 20
 
 
+@pytest.mark.jit
 def test_state0_rows_are_clear():
     """ContactList invariant the force loop relies on: a row with state 0 has zero history and
     zero outputs (rows, or a sphere pair's slots), after steps and right after a rebuild."""
@@ -138,6 +141,7 @@ def test_state0_rows_are_clear():
         sim.rebuild()
 
 
+@pytest.mark.jit
 def test_one_rank_slab_domain_sends_no_ghosts():
     """On the first (and last) rank no body goes to the missing neighbour (-1 in the ghost
     destinations used to select every body on rank 0)."""
@@ -183,6 +187,7 @@ def test_incidence_sorted_by_partner_gid():
         assert len(rows) == np.count_nonzero(pi == b) + np.count_nonzero(pj == b)
 
 
+@pytest.mark.jit
 @pytest.mark.parametrize("sparse", [False, True])
 def test_carry_by_first_gid_equals_hash_carry(sparse):
     rng = np.random.default_rng(8)
@@ -210,6 +215,7 @@ def test_carry_by_first_gid_equals_hash_carry(sparse):
         assert out[0][0].sum() > 100
 
 
+@pytest.mark.jit
 def test_replace_with_key_shift_equals_plain_replace():
     pos, radius, _ = packing((5, 4, 4), seed=9)
     n = len(pos)
