@@ -261,7 +261,9 @@ def test_the_thesis_grain_job_is_the_scaled_job_with_the_grain_and_preparation_o
     oedometer.check(job)
     c = oedometer.settings(job)
     assert len(c["grain"]["members"]) == 136
-    assert 1.0 < oedometer.bond_push(job, c) < 10.0 == c["bond_boost"]
+    push = oedometer.bond_push(job, c)
+    assert push > 1.0, push  # released at once, the bonds break
+    assert push < c["bond_boost"], (push, c["bond_boost"])  # held at the boosted strength, they do not
     grain = job["oedometer"].pop("clumps")
     preparation = {k: job["oedometer"].pop(k) for k in ("bond_boost", "bond_boost_time", "lattice_gap")}
     assert scaled["oedometer"].pop("clumps") == {"shape": "nottingham", "breakable": True}
