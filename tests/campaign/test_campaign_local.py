@@ -7,7 +7,6 @@ import os
 import signal
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import h5py
@@ -15,6 +14,7 @@ import numpy as np
 import pytest
 
 from campaign_helpers import ROOT, pdem_campaign, write_campaign
+from pdem_cli import wait_until
 
 
 def states(out):
@@ -58,17 +58,11 @@ name = "b"
     assert r3.returncode == 1 and states(out)["bad"]["attempts"] == 2 and states(out)["a"]["attempts"] == 1
 
 
-def wait_for_steps(logs, proc, timeout=600):
-    """Until every log shows a progress line of pdem's step loop (its signal handlers are in); the first
+def steps_logged(logs):
+    """Every log shows a progress line of pdem's step loop (its signal handlers are in); the first
     members compile the kernels (minutes on a fresh numba cache of a loaded machine)."""
-    t0 = time.monotonic()
-    while time.monotonic() - t0 < timeout:
-        assert proc.poll() is None, "the runner ended early"
-        if all(p.exists() and any(line.startswith("step ") and " t = " in line for line in p.read_text().splitlines())
-               for p in logs):
-            return
-        time.sleep(0.1)
-    raise AssertionError("the members did not start stepping")
+    return all(p.exists() and any(line.startswith("step ") and " t = " in line for line in p.read_text().splitlines())
+               for p in logs)
 
 
 def series(path):
@@ -90,7 +84,7 @@ values = [1, 2, 3]
     proc = subprocess.Popen([sys.executable, "-m", "pdem", "campaign", "run", str(p)], stdout=subprocess.PIPE,
                             stderr=subprocess.STDOUT, text=True, cwd=ROOT, env=env)
     try:
-        wait_for_steps([out / "seed-1" / "pdem.log", out / "seed-2" / "pdem.log"], proc)
+        wait_until(lambda: steps_logged([out / "seed-1" / "pdem.log", out / "seed-2" / "pdem.log"]), proc)
         proc.send_signal(signal.SIGTERM)  # the runner only: it forwards to the members
         text, _ = proc.communicate(timeout=300)
     finally:
@@ -138,7 +132,7 @@ def test_two_rank_member_stops_and_resumes(tmp_path, tiny):
     proc = subprocess.Popen([sys.executable, "-m", "pdem", "campaign", "run", str(p), "--cores", "2"],
                             stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, cwd=ROOT, env=env)
     try:
-        wait_for_steps([out / "seed-7" / "pdem.log"], proc)
+        wait_until(lambda: steps_logged([out / "seed-7" / "pdem.log"]), proc)
         proc.send_signal(signal.SIGTERM)
         text, _ = proc.communicate(timeout=300)
     finally:

@@ -9,11 +9,11 @@ import os
 import signal
 import subprocess
 import sys
-import time
 
 import h5py
 
 from campaign_helpers import pdem_campaign, write_campaign
+from pdem_cli import wait_until
 
 FAKE_SRUN = r"""#!/usr/bin/env bash
 echo "srun $*" >> "$FAKE_LOG"
@@ -142,10 +142,7 @@ def test_usr1_at_the_wall_time_is_forwarded_and_requeues(tmp_path, tiny):
     proc = subprocess.Popen(["bash", str(script)], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
                             env=slurm_env(tmp_path, 2, seed_3="wait 0"))
     try:
-        t0 = time.monotonic()
-        while not (out / "seed-3" / "fake_waiting").exists():
-            assert proc.poll() is None and time.monotonic() - t0 < 60, proc.stdout.read() if proc.poll() else "timeout"
-            time.sleep(0.05)
+        wait_until((out / "seed-3" / "fake_waiting").exists, proc)
         proc.send_signal(signal.SIGUSR1)  # what --signal=B:USR1@240 does
         text, _ = proc.communicate(timeout=300)
     finally:
@@ -168,11 +165,8 @@ def test_real_pdem_through_srun_stops_and_resumes(tmp_path, tiny):
     env = slurm_env(tmp_path, 0, seed_5="exec exec")
     proc = subprocess.Popen(["bash", str(script)], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env)
     try:
-        t0 = time.monotonic()
         log = out / "seed-5" / "pdem.log"
-        while not (log.exists() and "step      100" in log.read_text()):
-            assert proc.poll() is None and time.monotonic() - t0 < 120
-            time.sleep(0.05)
+        wait_until(lambda: log.exists() and "step      100" in log.read_text(), proc)
         proc.send_signal(signal.SIGUSR1)
         text, _ = proc.communicate(timeout=300)
     finally:
