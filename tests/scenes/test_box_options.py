@@ -23,7 +23,7 @@ import h5py
 import numpy as np
 import pytest
 
-from pdem_cli import MPIEXEC, run_pdem
+from pdem_cli import needs_mpiexec, run_pdem
 from scene_text import BOX_MATERIALS
 from pdem.io.checkpoint import list_checkpoints, read_checkpoint
 
@@ -83,10 +83,6 @@ shape = "ballast8"
 member_radius = 0.006
 """,
 }
-
-needs_mpiexec = pytest.mark.skipif(not MPIEXEC.exists(), reason="multi-rank test: no mpiexec next to the Python "
-                                   "executable")
-
 
 def scene_text(name):
     text = SCENE + OPTIONS[name]

@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 
 from analysis.io import read_box_test
-from pdem_cli import MPIEXEC, pdem_cmd, run_pdem
+from pdem_cli import needs_mpiexec, pdem_cmd, run_pdem
 from scene_text import BOX_MATERIALS
 from pdem.io.checkpoint import list_checkpoints, read_checkpoint
 
@@ -55,11 +55,6 @@ frequency = 5.0
 cycles = 2
 """
 N_CYCLES, F_MAX, SLEEPER_WEIGHT = 2, 300.0, 5.0 * 9.81
-
-needs_mpiexec = pytest.mark.skipif(
-    not MPIEXEC.exists(), reason="multi-rank test: no mpiexec next to the Python executable"
-)
-
 
 def groups(path):
     with h5py.File(path, "r") as f:

@@ -21,7 +21,7 @@ import pytest
 
 from analysis.track import analyse_track, passage_table
 from analysis.groups import read_track
-from pdem_cli import MPIEXEC, run_pdem
+from pdem_cli import needs_mpiexec, run_pdem
 from scene_text import BOX_MATERIALS
 from pdem.io.checkpoint import list_checkpoints, read_checkpoint
 from pdem.loads import rail_seat_share
@@ -74,7 +74,7 @@ rest_time = 0.05
 SPACING, SPEED, AXLE_LOAD, N_SLEEPERS = 0.3, 10.0, 2000.0, 3
 L = (4 * 6.38e6 * SPACING / 6.0e7) ** 0.25  # the scene's characteristic length [m]
 
-pytestmark = pytest.mark.skipif(not MPIEXEC.exists(), reason="no mpiexec next to the Python executable")
+pytestmark = needs_mpiexec
 
 
 def datasets(path):
