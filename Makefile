@@ -47,10 +47,12 @@ test-quick: venv lint   # without the tests marked slow (CI runs everything)
 test-unit: venv
 	$(PYTEST) tests/unit
 
-# The unit tests with numba's JIT off (plain Python: errors a compiled kernel hides, such as an
-# index out of bounds, raise); tests marked `jit` need the compiled kernels and are skipped.
+# The unit tests and the scenes' pieces with numba's JIT off (plain Python: errors a compiled
+# kernel hides, such as an index out of bounds, raise; ~15 s); tests marked `jit` need the compiled
+# kernels and are skipped.
+NOJIT_TESTS := tests/unit tests/scenes/test_box_test.py tests/scenes/test_box_options.py tests/scenes/test_blast.py
 test-nojit: venv
-	NUMBA_DISABLE_JIT=1 $(PYTEST) tests/unit -m "not slow"
+	NUMBA_DISABLE_JIT=1 $(PYTEST) $(NOJIT_TESTS) -m "not slow"
 
 test-mpi: venv
 	$(MPI_PYTEST) tests/mpi
