@@ -9,10 +9,10 @@ with them. Rolling resistance and rolling friction are on.
 """
 import numpy as np
 import pytest
+from factories import lattice_scene
 
 from pdem.io.checkpoint import read_checkpoint, write_checkpoint
 from pdem.parallel.comm import SerialComm, configure_threads
-from pdem.scene import Scene
 
 N_STEPS, K_STEP = 2500, 1630
 MATERIALS = {
@@ -23,25 +23,9 @@ _REFERENCE = {}
 
 
 def make_scene(law):
-    rng = np.random.default_rng(11)
-    spacing = 0.016
-    nx, ny, nz = 18, 5, 10
-    g = np.stack(np.meshgrid(np.arange(nx), np.arange(ny), np.arange(nz), indexing="ij"), -1).reshape(-1, 3)
-    pos = (g + 0.5) * spacing + rng.uniform(-0.0005, 0.0005, (len(g), 3))
-    radius = 0.005 * rng.uniform(0.6, 1.4, len(g))
-    vel = np.zeros((len(g), 3))
-    vel[:, 0] = rng.uniform(-0.6, 0.6, len(g))
-    vel[:, 2] = rng.uniform(-0.5, 0.0, len(g))
-    angvel = rng.uniform(-20.0, 20.0, (len(g), 3))
-    scene = Scene(dt="auto", gravity=(0.0, 0.0, -9.81), slab_axis=0, law=law, dt_interval=50, check_interval=40)
-    m = scene.material(density=2700.0, **MATERIALS[law])
-    scene.add_spheres(pos, radius, m, vel=vel, angvel=angvel)
-    scene.add_wall(2, 0.0, m, sense=1)
-    scene.add_wall(0, 0.0, m, sense=1)
-    scene.add_wall(0, nx * spacing, m, sense=-1)
-    scene.add_wall(1, 0.0, m, sense=1)
-    scene.add_wall(1, ny * spacing, m, sense=-1)
-    return scene
+    # 900 spheres spinning, a box long along x (the slab axis); bodies cross slab edges
+    return lattice_scene(11, (18, 5, 10), vx=0.6, vz=0.5, angvel=20.0, one_sided=True, material=MATERIALS[law],
+                         damping=0.0, slab_axis=0, law=law, dt_interval=50, check_interval=40)[0]
 
 
 def by_gid(comm, sim):

@@ -9,7 +9,7 @@ must equal the reference to the last bit. Restores of a 2-rank checkpoint onto 1
 through the command line: tests/io/test_restart_cli.py.
 """
 import numpy as np
-from lattice_scenes import lattice_scene
+from factories import lattice_scene
 
 from pdem.io.checkpoint import read_checkpoint, write_checkpoint
 from pdem.parallel.comm import SerialComm, configure_threads

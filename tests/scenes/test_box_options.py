@@ -27,13 +27,13 @@ import shutil
 from math import pi, sin, tan
 from pathlib import Path
 
-import h5py
 import numpy as np
 import pytest
 import tomllib
 
 from pdem_cli import needs_mpiexec, run_pdem
-from scene_text import BOX_MATERIALS
+from run_files import datasets
+from factories import BOX_MATERIALS
 from pdem.driver.cycles import CycleRecorder
 from pdem.driver.observables import box_face_forces
 from pdem.errors import InputError
@@ -339,16 +339,9 @@ def scene_text(name):
     return text
 
 
-def h5(path):
-    with h5py.File(path, "r") as f:
-        out = {}
-        f.visititems(lambda n, o: out.__setitem__(n, o[()]) if isinstance(o, h5py.Dataset) else None)
-        return out
-
-
 def assert_same(a, b):
     for name in ("results.h5", "preparation.h5"):
-        x, y = h5(a / name), h5(b / name)
+        x, y = datasets(a / name), datasets(b / name)
         assert sorted(x) == sorted(y), name
         for k in x:
             assert np.array_equal(x[k], y[k], equal_nan=True), f"{b}/{name}:{k} differs"
@@ -371,11 +364,11 @@ def runs(tmp_path_factory):
 
 
 def cycles(d):
-    return {k[len("cycles/"):]: v for k, v in h5(d / "results.h5").items() if k.startswith("cycles/")}
+    return {k[len("cycles/"):]: v for k, v in datasets(d / "results.h5").items() if k.startswith("cycles/")}
 
 
 def series(d, name="results.h5"):
-    return {k[len("series/"):]: v for k, v in h5(d / name).items() if k.startswith("series/")}
+    return {k[len("series/"):]: v for k, v in datasets(d / name).items() if k.startswith("series/")}
 
 
 @pytest.mark.slow

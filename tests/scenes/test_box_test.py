@@ -24,7 +24,7 @@ import pytest
 
 from analysis.io import read_box_test
 from pdem_cli import needs_mpiexec, pdem_cmd, run_pdem
-from scene_text import BOX_MATERIALS
+from factories import BOX_MATERIALS
 from pdem.driver.preparation import cloud, cloud_count
 from pdem.driver.stages import remove_above
 from pdem.io.checkpoint import list_checkpoints, read_checkpoint

@@ -39,7 +39,8 @@ from pdem.scene import Scene
 from pdem.scenes.track import (check, check_ranks, in_sleepers, outside_bed, profile, same_preparation, sleeper_boxes,
                                sleeper_x, slope_facets, track_settings, traffic_settings)
 from pdem_cli import needs_mpiexec, run_pdem
-from scene_text import BOX_MATERIALS
+from run_files import datasets
+from factories import BOX_MATERIALS
 
 CONCRETE = """
 [materials.concrete]
@@ -291,13 +292,6 @@ rest_time = 0.05
 """
 SPACING, SPEED, AXLE_LOAD, N_SLEEPERS = 0.3, 10.0, 2000.0, 3
 L = (4 * 6.38e6 * SPACING / 6.0e7) ** 0.25  # the scene's characteristic length [m]
-
-
-def datasets(path):
-    out = {}
-    with h5py.File(path, "r") as f:
-        f.visititems(lambda name, obj: out.__setitem__(name, obj[()]) if isinstance(obj, h5py.Dataset) else None)
-    return out
 
 
 def assert_same_files(ref, got, names=("results.h5", "preparation.h5", "snapshots.h5")):

@@ -1,28 +1,11 @@
-"""Helpers of the oedometer tests: the CI scene file with changes, and bit-for-bit comparison of
-two runs' HDF5 outputs and final checkpoints."""
-import tomllib
+"""What a run wrote, for the scene tests: every dataset of an HDF5 file, and what differs bit for
+bit between two runs' HDF5 outputs and final checkpoints."""
 from pathlib import Path
 
 import h5py
 import numpy as np
 
 from pdem.io.checkpoint import list_checkpoints, read_checkpoint
-
-CI_JOB = Path(__file__).resolve().parents[2] / "jobs" / "oedometer_ci.toml"
-
-
-def ci_doc(**oedometer):
-    """The parsed CI job with ``oedometer`` keys replaced."""
-    doc = tomllib.loads(CI_JOB.read_text())
-    doc["oedometer"].update(oedometer)
-    return doc
-
-
-def toml_text(doc):
-    """TOML text of a parsed scene file (tables of scalars, lists and subtables)."""
-    from pdem.campaign.tomlw import dumps
-
-    return dumps(doc)
 
 
 def datasets(path):
