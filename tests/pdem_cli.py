@@ -1,6 +1,6 @@
 """Running ``python -m pdem run`` from a test as a subprocess, on one rank or under the venv's
 ``mpiexec`` (next to sys.executable), with one numba thread per rank; the ``needs_mpiexec`` skip
-marker; waiting for what a running subprocess writes."""
+marker; a subprocess signalled once it has written what a test waits for."""
 import os
 import subprocess
 import sys
@@ -27,11 +27,19 @@ def run_pdem(n_ranks, scene, out, *extra, expect=0):
     return r
 
 
-def wait_until(condition, proc, poll=0.05):
-    """Poll ``condition()`` until it holds while ``proc`` runs; fail if proc ends first. No wall-clock
-    limit (a loaded machine may compile kernels for minutes): a hang is pytest-timeout's to stop."""
-    while not condition():
-        if proc.poll() is not None:
-            output = proc.stdout.read() if proc.stdout else ""
-            pytest.fail(f"the process ended (exit {proc.returncode}) before the awaited state\n{output[-3000:]}")
-        time.sleep(poll)
+def signal_when(cmd, condition, signum, **popen_kw):
+    """Start ``cmd`` (stdout and stderr as text), send it ``signum`` once ``condition()`` holds, and
+    return (exit status, output); fail if it ends before. No wall-clock limit on the wait (a loaded
+    machine may compile kernels for minutes): a hang is pytest-timeout's to stop."""
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, **popen_kw)
+    try:
+        while not condition():
+            if proc.poll() is not None:
+                pytest.fail(f"ended (exit {proc.returncode}) before it was signalled\n{proc.stdout.read()[-3000:]}")
+            time.sleep(0.05)
+        proc.send_signal(signum)
+        text, _ = proc.communicate(timeout=300)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    return proc.returncode, text
