@@ -1,11 +1,21 @@
-"""What a run wrote, for the scene tests: every dataset of an HDF5 file, and what differs bit for
-bit between two runs' HDF5 outputs and final checkpoints."""
+"""What a run holds or wrote, for the tests that compare runs bit for bit: the bodies of a running
+simulation gathered from every rank in gid order, every dataset of an HDF5 file, and what differs
+between two runs' HDF5 outputs and final checkpoints."""
 from pathlib import Path
 
 import h5py
 import numpy as np
 
 from pdem.io.checkpoint import list_checkpoints, read_checkpoint
+
+
+def bodies_by_gid(comm, sim):
+    """[gid, pos, vel, angvel, force, torque] of every owned body on every rank, by gid."""
+    p = sim.particles
+    n = p.n_local
+    cols = [comm.allgather_rows(getattr(p, k)[:n].copy()) for k in ("gid", "pos", "vel", "angvel", "force", "torque")]
+    o = np.argsort(cols[0])
+    return [c[o] for c in cols]
 
 
 def datasets(path):

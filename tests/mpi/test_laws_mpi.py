@@ -10,6 +10,7 @@ with them. Rolling resistance and rolling friction are on.
 import numpy as np
 import pytest
 from factories import lattice_scene
+from run_files import bodies_by_gid
 
 from pdem.io.checkpoint import read_checkpoint, write_checkpoint
 from pdem.parallel.comm import SerialComm, configure_threads
@@ -28,14 +29,6 @@ def make_scene(law):
                          damping=0.0, slab_axis=0, law=law, dt_interval=50, check_interval=40)[0]
 
 
-def by_gid(comm, sim):
-    p = sim.particles
-    n = p.n_local
-    cols = [comm.allgather_rows(getattr(p, k)[:n].copy()) for k in ("gid", "pos", "vel", "angvel", "force", "torque")]
-    o = np.argsort(cols[0])
-    return [c[o] for c in cols]
-
-
 def history_by_key(comm, sim):
     out = {}
     for kind in sim.kinds:
@@ -52,7 +45,8 @@ def reference(law):
     if law not in _REFERENCE:
         ref = make_scene(law).build(comm=SerialComm())
         ref.run(N_STEPS)
-        _REFERENCE[law] = (by_gid(SerialComm(), ref), history_by_key(SerialComm(), ref), (ref.step, ref.time, ref.dt))
+        serial = SerialComm()
+        _REFERENCE[law] = (bodies_by_gid(serial, ref), history_by_key(serial, ref), (ref.step, ref.time, ref.dt))
     return _REFERENCE[law]
 
 
@@ -62,7 +56,7 @@ def same(a, b):
 
 def assert_matches(comm, sim, law, what):
     state, hist, scalars = reference(law)
-    ok = all(same(a, b) for a, b in zip(state, by_gid(comm, sim)))
+    ok = all(same(a, b) for a, b in zip(state, bodies_by_gid(comm, sim)))
     got = history_by_key(comm, sim)
     ok = ok and sorted(got) == sorted(hist) and all(same(got[k][0], hist[k][0]) and same(got[k][1], hist[k][1])
                                                      for k in hist)
