@@ -14,6 +14,8 @@
   (``STEEL``), initial overlaps allowed (the box cases start in contact on purpose).
 - ``clump_scene()``: rigid 8-sphere clumps and breakable grains thrown sideways in a box long
   along x (the slab axis), so that clumps cross slab edges, straddle them and bonds break.
+- ``TINY_DEPOSITION``: a tiny plain scene file (50 spheres falling into a box, 400 steps), the
+  campaign tests' base scene.
 - ``oedometer_ci_doc(**changes)``: jobs/oedometer_ci.toml parsed, with [oedometer] keys replaced;
   ``toml_text(doc)`` writes a parsed scene file back.
 """
@@ -156,6 +158,37 @@ def clump_scene(n_rigid=60, n_breakable=6):
 
 
 # ---------------------------------------------------------------------------- scene files
+TINY_DEPOSITION = """
+[simulation]
+dt = "auto"
+damping = 0.3
+gravity = [0.0, 0.0, -9.81]
+
+[run]
+steps = 400
+progress_every = 100
+output_every = 20
+checkpoint_keep = 2
+kind = "deposition"
+
+[materials.ballast]
+density = 2600.0
+young = 1.0e7
+poisson = 0.3
+friction_angle = 0.5
+
+[deposition]
+box_lo = [0.0, 0.0, 0.0]
+box_hi = [0.2, 0.1, 0.3]
+count = 50
+radius = 0.01
+radius_spread = 0.3
+seed = 3
+material = "ballast"
+walls_material = "ballast"
+"""
+
+
 def oedometer_ci_doc(**oedometer):
     """The parsed CI oedometer job with ``oedometer`` keys replaced."""
     doc = tomllib.loads(OEDOMETER_CI_JOB.read_text())
