@@ -8,6 +8,9 @@
   axis), ρ 2700 and E 1e7, ν 0.3, φ 0.5 (or other material keys), damping 0.3, gravity, and
   walls: the floor z = 0, then x = 0, x = Lx, y = 0, y = Ly (one-sided facing inwards with
   ``one_sided``, else two-sided). Returns (scene, material index, (Lx, Ly)).
+- ``shuffled_lattice_scene((nx, ny, nz), seed)``: spheres r = 4-5 mm on a jittered lattice of
+  10.5 mm (``shuffled_lattice``) in random row order, moving (U(−0.5, 0.5) m/s each way), ρ 2700,
+  E 1e7, ν 0.3, φ 0.5, damping 0.3, gravity, between two-sided walls z = 0, x = 0 and x = Lx.
 - ``box_scene(n, ...)``: n spheres on a jittered cubic grid (``grid_packing``) in an open box of
   5 walls; ``sphere_mass(r, ρ)`` [kg].
 - ``ball_and_steel(...)``: a scene with a ball material (``BALL``) and a ten times stiffer steel
@@ -76,6 +79,29 @@ def lattice_scene(seed, shape, *, vx=0.0, vz=0.0, angvel=0.0, one_sided=False, m
     for axis, position, sense in ((2, 0.0, 1), (0, 0.0, 1), (0, lx, -1), (1, 0.0, 1), (1, ly, -1)):
         scene.add_wall(axis, position, m, sense=sense if one_sided else 0)
     return scene, m, (lx, ly)
+
+
+def shuffled_lattice(shape=(8, 5, 6), seed=5, spacing=0.0105):
+    """(pos, radius, vel) of a jittered lattice of spheres (r = 4-5 mm, not touching) in a random order, moving."""
+    rng = np.random.default_rng(seed)
+    g = np.stack(np.meshgrid(*(np.arange(k) for k in shape), indexing="ij"), -1).reshape(-1, 3)
+    g = g[rng.permutation(len(g))]
+    pos = (g + 0.5) * spacing + rng.uniform(-2e-4, 2e-4, (len(g), 3))
+    radius = 0.005 * rng.uniform(0.8, 1.0, len(g))
+    vel = rng.uniform(-0.5, 0.5, (len(g), 3))
+    return pos, radius, vel
+
+
+def shuffled_lattice_scene(shape=(8, 5, 6), seed=5, **scene_kw):
+    spacing = 0.0105
+    pos, radius, vel = shuffled_lattice(shape, seed, spacing)
+    scene = Scene(dt="auto", damping=0.3, gravity=(0.0, 0.0, -9.81), **scene_kw)
+    m = scene.material(density=2700.0, young=1e7, poisson=0.3, friction_angle=0.5)
+    scene.add_spheres(pos, radius, m, vel=vel)
+    scene.add_wall(2, 0.0, m)
+    scene.add_wall(0, 0.0, m)
+    scene.add_wall(0, shape[0] * spacing, m)
+    return scene
 
 
 # ---------------------------------------------------------------------------- grid packings in a box
