@@ -4,7 +4,7 @@
   2.8e6 Pa, steel 10 E_k, rubber 0.1 E_k) as scene-file text (box test, its options, track).
 - ``lattice_scene(seed, (nx, ny, nz), ...)``: nx·ny·nz spheres of radius 5 mm × U(0.6, 1.4) on a
   lattice of 16 mm (no initial overlap), jitter ±0.5 mm, optional random velocities along x
-  (U(−vx, vx), so bodies cross slab edges), down (U(−vz, 0)) and spins (U(−w, w) about each
+  (U(−vx, vx), so bodies cross slab edges), down (U(−vz, 0)) and spins (U(±angvel) about each
   axis), ρ 2700 and E 1e7, ν 0.3, φ 0.5 (or other material keys), damping 0.3, gravity, and
   walls: the floor z = 0, then x = 0, x = Lx, y = 0, y = Ly (one-sided facing inwards with
   ``one_sided``, else two-sided). Returns (scene, material index, (Lx, Ly)).
