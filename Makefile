@@ -48,11 +48,10 @@ test-unit: venv
 	$(PYTEST) tests/unit
 
 # The unit tests and the scenes' pieces with numba's JIT off (plain Python: errors a compiled
-# kernel hides, such as an index out of bounds, raise; ~15 s); tests marked `jit` need the compiled
-# kernels and are skipped. Not tests/scenes/test_track.py: its CI runs are not marked slow.
-NOJIT_TESTS := tests/unit tests/scenes/test_box_test.py tests/scenes/test_box_options.py tests/scenes/test_blast.py
+# kernel hides, such as an index out of bounds, raise; ~20 s); tests marked `jit` need the compiled
+# kernels and are skipped.
 test-nojit: venv
-	NUMBA_DISABLE_JIT=1 $(PYTEST) $(NOJIT_TESTS) -m "not slow"
+	NUMBA_DISABLE_JIT=1 $(PYTEST) tests/unit tests/scenes -m "not slow"
 
 test-mpi: venv
 	$(MPI_PYTEST) tests/mpi

@@ -251,6 +251,7 @@ def test_sleepers_for_paraview(tmp_path):
 
 
 # ---------------------------------------------------------------------------- end to end
+# slow: the track prepared and run on 1 and 2 ranks (a minute or more), more runs on 3 ranks
 SCENE = """[simulation]
 dt = "auto"
 damping = 0.3
@@ -324,6 +325,7 @@ def runs(tmp_path_factory):
 
 
 @needs_mpiexec
+@pytest.mark.slow
 def test_every_stage_runs_and_leaves_results(runs):
     base, _, r1, _ = runs
     out = base / "r1"
@@ -350,6 +352,7 @@ def test_every_stage_runs_and_leaves_results(runs):
 
 
 @needs_mpiexec
+@pytest.mark.slow
 def test_sleepers_settle_under_the_passing_bogie(runs):
     base = runs[0]
     rec = read_track(base / "r1" / "results.h5")
@@ -381,6 +384,7 @@ def json_body_mass(h):
 
 
 @needs_mpiexec
+@pytest.mark.slow
 def test_same_bits_on_1_and_2_ranks(runs):
     base = runs[0]
     assert_same_files(base / "r1", base / "r2")
