@@ -1,4 +1,5 @@
-"""Test-suite plumbing: the ``jit`` marker's skip, and running pytest on several MPI ranks.
+"""Test-suite plumbing: the ``one_line_error`` check, the ``jit`` marker's skip, and running pytest
+on several MPI ranks.
 
 Tests marked ``jit`` need numba's compiled kernels: the contact carry's hash (``pdem.contacts``)
 multiplies int64 keys with wrap-around, which Python's integers do not do, so under
@@ -96,6 +97,21 @@ if _PARALLEL:
         if report.failed:
             _abort(f"collecting {collector.nodeid or collector.name}", report.longreprtext)
         return report
+
+
+@pytest.fixture
+def one_line_error():
+    """``one_line_error(error, call, *words)``: ``call()`` raises ``error`` with a message of one
+    line that holds every word; returns the message."""
+    def check(error, call, *words):
+        with pytest.raises(error) as info:
+            call()
+        message = str(info.value)
+        assert "\n" not in message, message
+        for word in words:
+            assert word in message, (word, message)
+        return message
+    return check
 
 
 @pytest.fixture

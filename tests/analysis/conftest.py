@@ -77,15 +77,7 @@ def box_file_no_cycles(tmp_path, box_record):
 
 
 @pytest.fixture
-def expect_error():
+def expect_error(one_line_error):
     """``expect_error(read, path, *words)``: ``read(path)`` raises a ResultFileError of one line that
     names the file and every word; returns its message."""
-    def check(read, path, *words):
-        with pytest.raises(ResultFileError) as info:
-            read(path)
-        message = str(info.value)
-        assert "\n" not in message and str(path) in message, message
-        for word in words:
-            assert word in message, message
-        return message
-    return check
+    return lambda read, path, *words: one_line_error(ResultFileError, lambda: read(path), str(path), *words)
