@@ -14,7 +14,7 @@ PYTEST  := $(VPY) -m pytest -q --timeout=900 --timeout-method=thread
 MPI_PYTEST := timeout -k 10 1500 $(MPIEXEC) -n $(NP) $(VPY) -m mpi4py -m pytest -q \
               --timeout=900 --timeout-method=thread --capture=sys
 
-.PHONY: venv run test lint test-quick test-unit test-mpi bench validate box-checks clean
+.PHONY: venv run test lint test-quick test-unit test-nojit test-mpi bench validate box-checks clean
 
 venv: $(VENV)/.done
 
@@ -28,9 +28,11 @@ $(VENV)/.done: requirements.lock pyproject.toml
 run: venv
 	$(MPIEXEC) -n 2 $(VPY) -m pdem run jobs/box_test.toml --out runs/box_test --fresh
 
-# Lint, serial tests (they also fill the numba cache), then the MPI tests on NP ranks and on 3.
+# Lint, serial tests (they also fill the numba cache), the unit tests without JIT, then the MPI
+# tests on NP ranks and on 3.
 test: venv lint
 	$(PYTEST) tests --ignore=tests/mpi
+	$(MAKE) --no-print-directory test-nojit
 	@if [ -d tests/mpi ]; then \
 	  $(MPI_PYTEST) tests/mpi && \
 	  timeout -k 10 1500 $(MPIEXEC) -n 3 $(VPY) -m mpi4py -m pytest -q --timeout=900 --timeout-method=thread --capture=sys tests/mpi; \
@@ -44,6 +46,12 @@ test-quick: venv lint   # without the tests marked slow (CI runs everything)
 
 test-unit: venv
 	$(PYTEST) tests/unit
+
+# The unit tests and the scenes' pieces with numba's JIT off (plain Python: errors a compiled
+# kernel hides, such as an index out of bounds, raise; ~20 s); tests marked `jit` need the compiled
+# kernels and are skipped.
+test-nojit: venv
+	NUMBA_DISABLE_JIT=1 $(PYTEST) tests/unit tests/scenes -m "not slow"
 
 test-mpi: venv
 	$(MPI_PYTEST) tests/mpi

@@ -1,4 +1,9 @@
-"""Test-suite plumbing for running pytest on several MPI ranks.
+"""Test-suite plumbing: the ``one_line_error`` check, the ``jit`` marker's skip, and running pytest
+on several MPI ranks.
+
+Tests marked ``jit`` need numba's compiled kernels: the contact carry's hash (``pdem.contacts``)
+multiplies int64 keys with wrap-around, which Python's integers do not do, so under
+``NUMBA_DISABLE_JIT=1`` (``make test-nojit``) they are skipped.
 
 Owns: the hooks that make ``mpiexec -n N python -m mpi4py -m pytest --capture=sys tests/mpi``
 fail fast and print one report (TOOLCHAIN.md, "MPI tests under pytest"), and the
@@ -24,6 +29,7 @@ import sys
 import tempfile
 from pathlib import Path
 
+import numba
 import pytest
 
 from pdem.parallel.comm import configure_threads, get_comm
@@ -37,6 +43,15 @@ if _PARALLEL:  # ranks x threads within the cores (OpenMP threads spin: oversubs
 _LOG_DIR = Path(
     os.environ.get("PDEM_TEST_LOG_DIR") or Path(tempfile.gettempdir()) / "pdem-pytest-mpi"
 )
+
+
+def pytest_collection_modifyitems(config, items):
+    if not numba.config.DISABLE_JIT:
+        return
+    skip = pytest.mark.skip(reason="needs numba's compiled kernels: int64 arithmetic that wraps around")
+    for item in items:
+        if "jit" in item.keywords:
+            item.add_marker(skip)
 
 
 def _abort(what, longrepr):
@@ -82,6 +97,21 @@ if _PARALLEL:
         if report.failed:
             _abort(f"collecting {collector.nodeid or collector.name}", report.longreprtext)
         return report
+
+
+@pytest.fixture
+def one_line_error():
+    """``one_line_error(error, call, *words)``: ``call()`` raises ``error`` with a message of one
+    line that holds every word; returns the message."""
+    def check(error, call, *words):
+        with pytest.raises(error) as info:
+            call()
+        message = str(info.value)
+        assert "\n" not in message, message
+        for word in words:
+            assert word in message, (word, message)
+        return message
+    return check
 
 
 @pytest.fixture

@@ -1,4 +1,5 @@
-"""Synthetic box-test records with known answers, for the analysis tests.
+"""Synthetic box-test records with known answers, and the check of a bad file's error, for the
+analysis tests.
 
 The record is a haversine load 3 <-> 40 kN at 1 Hz; the ballast force equals the load
 (quasi-static). In cycle k the settlement rises linearly with stiffness k_load[k] up to the peak
@@ -10,6 +11,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
+from analysis import ResultFileError
 from analysis.schema import write_results
 
 F_MIN, F_MAX = 3.0e3, 40.0e3  # [N]
@@ -72,3 +74,10 @@ def box_file(tmp_path, box_record):
 def box_file_no_cycles(tmp_path, box_record):
     """The same test without /cycles (cycles must be detected)."""
     return write_results(tmp_path / "box_nocycles.h5", box_record.series, None, ATTRS)
+
+
+@pytest.fixture
+def expect_error(one_line_error):
+    """``expect_error(read, path, *words)``: ``read(path)`` raises a ResultFileError of one line that
+    names the file and every word; returns its message."""
+    return lambda read, path, *words: one_line_error(ResultFileError, lambda: read(path), str(path), *words)

@@ -1,5 +1,5 @@
-"""Campaign tests: a tiny plain base scene (50 spheres falling into a box, a few hundred steps),
-campaign files written from text, and ``pdem campaign`` run in-process or as a subprocess with
+"""Campaign tests: campaign files written from text over the tiny base scene
+(`factories.TINY_DEPOSITION`, the ``tiny`` fixture), and ``pdem campaign`` run as a subprocess with
 the venv's python (the one running the tests)."""
 import os
 import subprocess
@@ -7,43 +7,6 @@ import sys
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[2]
-
-TINY = """
-[simulation]
-dt = "auto"
-damping = 0.3
-gravity = [0.0, 0.0, -9.81]
-
-[run]
-steps = 400
-progress_every = 100
-output_every = 20
-checkpoint_keep = 2
-kind = "deposition"
-
-[materials.ballast]
-density = 2600.0
-young = 1.0e7
-poisson = 0.3
-friction_angle = 0.5
-
-[deposition]
-box_lo = [0.0, 0.0, 0.0]
-box_hi = [0.2, 0.1, 0.3]
-count = 50
-radius = 0.01
-radius_spread = 0.3
-seed = 3
-material = "ballast"
-walls_material = "ballast"
-"""
-
-
-def write_tiny(tmp_path, text=TINY):
-    """The tiny base scene as tmp_path/tiny.toml."""
-    p = tmp_path / "tiny.toml"
-    p.write_text(text)
-    return p
 
 
 def write_campaign(tmp_path, body, name="camp", base="tiny.toml", out=None, head=""):

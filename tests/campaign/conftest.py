@@ -1,10 +1,12 @@
 """Fixtures of the campaign tests (helpers in campaign_helpers.py)."""
 import pytest
 
-from campaign_helpers import write_tiny
+from factories import TINY_DEPOSITION
 
 
 @pytest.fixture
 def tiny(tmp_path):
     """Path of the tiny base scene (tmp_path/tiny.toml)."""
-    return write_tiny(tmp_path)
+    path = tmp_path / "tiny.toml"
+    path.write_text(TINY_DEPOSITION)
+    return path

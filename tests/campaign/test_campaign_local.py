@@ -5,9 +5,7 @@ results.h5 equals that of an uninterrupted campaign bit for bit."""
 import json
 import os
 import signal
-import subprocess
 import sys
-import time
 from pathlib import Path
 
 import h5py
@@ -15,6 +13,7 @@ import numpy as np
 import pytest
 
 from campaign_helpers import ROOT, pdem_campaign, write_campaign
+from pdem_cli import signal_when
 
 
 def states(out):
@@ -58,17 +57,11 @@ name = "b"
     assert r3.returncode == 1 and states(out)["bad"]["attempts"] == 2 and states(out)["a"]["attempts"] == 1
 
 
-def wait_for_steps(logs, proc, timeout=600):
-    """Until every log shows a progress line of pdem's step loop (its signal handlers are in); the first
+def steps_logged(logs):
+    """Every log shows a progress line of pdem's step loop (its signal handlers are in); the first
     members compile the kernels (minutes on a fresh numba cache of a loaded machine)."""
-    t0 = time.monotonic()
-    while time.monotonic() - t0 < timeout:
-        assert proc.poll() is None, "the runner ended early"
-        if all(p.exists() and any(line.startswith("step ") and " t = " in line for line in p.read_text().splitlines())
-               for p in logs):
-            return
-        time.sleep(0.1)
-    raise AssertionError("the members did not start stepping")
+    return all(p.exists() and any(line.startswith("step ") and " t = " in line for line in p.read_text().splitlines())
+               for p in logs)
 
 
 def series(path):
@@ -87,16 +80,11 @@ values = [1, 2, 3]
 """, head="[local]\ncores = 2")
     out = tmp_path / "runs" / "camp"
     env = dict(os.environ, OMP_NUM_THREADS="1", MPLBACKEND="Agg")
-    proc = subprocess.Popen([sys.executable, "-m", "pdem", "campaign", "run", str(p)], stdout=subprocess.PIPE,
-                            stderr=subprocess.STDOUT, text=True, cwd=ROOT, env=env)
-    try:
-        wait_for_steps([out / "seed-1" / "pdem.log", out / "seed-2" / "pdem.log"], proc)
-        proc.send_signal(signal.SIGTERM)  # the runner only: it forwards to the members
-        text, _ = proc.communicate(timeout=300)
-    finally:
-        if proc.poll() is None:
-            proc.kill()
-    assert proc.returncode == 3, text
+    # SIGTERM to the runner only: it forwards to the members
+    status, text = signal_when([sys.executable, "-m", "pdem", "campaign", "run", str(p)],
+                               lambda: steps_logged([out / "seed-1" / "pdem.log", out / "seed-2" / "pdem.log"]),
+                               signal.SIGTERM, cwd=ROOT, env=env)
+    assert status == 3, text
     assert "SIGTERM received: stopping 2 running member(s)" in text
     st = states(out)
     # the two running members stop (a member may just have finished its few seconds of steps when
@@ -135,16 +123,9 @@ def test_two_rank_member_stops_and_resumes(tmp_path, tiny):
     p = write_campaign(tmp_path, '[set]\n"run.steps" = 20000\n[seeds]\nvalues = [7]\n', head="ranks = 2")
     out = tmp_path / "runs" / "camp"
     env = dict(os.environ, OMP_NUM_THREADS="1", MPLBACKEND="Agg")
-    proc = subprocess.Popen([sys.executable, "-m", "pdem", "campaign", "run", str(p), "--cores", "2"],
-                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, cwd=ROOT, env=env)
-    try:
-        wait_for_steps([out / "seed-7" / "pdem.log"], proc)
-        proc.send_signal(signal.SIGTERM)
-        text, _ = proc.communicate(timeout=300)
-    finally:
-        if proc.poll() is None:
-            proc.kill()
-    assert proc.returncode == 3, text
+    status, text = signal_when([sys.executable, "-m", "pdem", "campaign", "run", str(p), "--cores", "2"],
+                               lambda: steps_logged([out / "seed-7" / "pdem.log"]), signal.SIGTERM, cwd=ROOT, env=env)
+    assert status == 3, text
     log = (out / "seed-7" / "pdem.log").read_text()
     assert "mpiexec -n 2 " in log and "on 2 rank(s)" in log and "stop signal received" in log
     assert states(out)["seed-7"]["state"] == "stopped"

@@ -9,11 +9,11 @@ import os
 import signal
 import subprocess
 import sys
-import time
 
 import h5py
 
 from campaign_helpers import pdem_campaign, write_campaign
+from pdem_cli import signal_when
 
 FAKE_SRUN = r"""#!/usr/bin/env bash
 echo "srun $*" >> "$FAKE_LOG"
@@ -139,19 +139,9 @@ def test_array_task_requeue_on_exit_3_and_resume(tmp_path, tiny):
 def test_usr1_at_the_wall_time_is_forwarded_and_requeues(tmp_path, tiny):
     _, out, script = make_script(tmp_path)
     fake_bin(tmp_path)
-    proc = subprocess.Popen(["bash", str(script)], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
-                            env=slurm_env(tmp_path, 2, seed_3="wait 0"))
-    try:
-        t0 = time.monotonic()
-        while not (out / "seed-3" / "fake_waiting").exists():
-            assert proc.poll() is None and time.monotonic() - t0 < 60, proc.stdout.read() if proc.poll() else "timeout"
-            time.sleep(0.05)
-        proc.send_signal(signal.SIGUSR1)  # what --signal=B:USR1@240 does
-        text, _ = proc.communicate(timeout=300)
-    finally:
-        if proc.poll() is None:
-            proc.kill()
-    assert proc.returncode == 3, text
+    status, text = signal_when(["bash", str(script)], (out / "seed-3" / "fake_waiting").exists,
+                               signal.SIGUSR1, env=slurm_env(tmp_path, 2, seed_3="wait 0"))  # --signal=B:USR1@240
+    assert status == 3, text
     assert "requeueing array task 77_2" in text and fake_log(tmp_path)[-1] == "scontrol requeue 77_2"
     assert "step 100: stop signal received" in (out / "seed-3" / "pdem.log").read_text()
 
@@ -166,19 +156,10 @@ def test_real_pdem_through_srun_stops_and_resumes(tmp_path, tiny):
     script = out / "campaign.sbatch"
     fake_bin(tmp_path)
     env = slurm_env(tmp_path, 0, seed_5="exec exec")
-    proc = subprocess.Popen(["bash", str(script)], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env)
-    try:
-        t0 = time.monotonic()
-        log = out / "seed-5" / "pdem.log"
-        while not (log.exists() and "step      100" in log.read_text()):
-            assert proc.poll() is None and time.monotonic() - t0 < 120
-            time.sleep(0.05)
-        proc.send_signal(signal.SIGUSR1)
-        text, _ = proc.communicate(timeout=300)
-    finally:
-        if proc.poll() is None:
-            proc.kill()
-    assert proc.returncode == 3, text
+    log = out / "seed-5" / "pdem.log"
+    status, text = signal_when(["bash", str(script)], lambda: log.exists() and "step      100" in log.read_text(),
+                               signal.SIGUSR1, env=env)
+    assert status == 3, text
     assert fake_log(tmp_path)[-1] == "scontrol requeue 77_0"
     r = run_task(script, env)
     assert r.returncode == 0, r.stdout + r.stderr

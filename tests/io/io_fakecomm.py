@@ -8,7 +8,6 @@ allreduce_max, any_flag); a rank that fails aborts the barrier so the others fai
 from __future__ import annotations
 
 import threading
-import time
 
 import numpy as np
 
@@ -34,7 +33,7 @@ class SerialComm:
 
 class _Shared:
     def __init__(self, size):
-        self.barrier = threading.Barrier(size, timeout=20)
+        self.barrier = threading.Barrier(size)
         self.slots = [None] * size
 
 
@@ -83,14 +82,13 @@ def run_ranks(size, fn):
     threads = [threading.Thread(target=body, args=(r,), daemon=True) for r in range(size)]
     for t in threads:
         t.start()
-    # A rank that raised leaves the others waiting in a collective (as under MPI): give them a
-    # second to finish on their own (they may raise the same error), then break the barrier.
-    deadline = time.monotonic() + 30
-    while any(t.is_alive() for t in threads) and time.monotonic() < deadline:
-        if failed.wait(0.05):
-            for t in threads:
-                t.join(1.0)
+    # A rank that raised leaves the others waiting in a collective (as under MPI): they finish on
+    # their own (they may raise the same error) unless every rank still running waits in the
+    # barrier, which can then never fill: break it. No clock: a hang is pytest-timeout's to stop.
+    while any(t.is_alive() for t in threads):
+        alive = sum(t.is_alive() for t in threads)
+        if failed.wait(0.01) and shared.barrier.n_waiting == alive:
             shared.barrier.abort()
     for t in threads:
-        t.join(1.0)
+        t.join()
     return results, errors

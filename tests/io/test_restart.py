@@ -9,7 +9,7 @@ re-estimation, stability checks and neighbour rebuilds all fall at different pha
 """
 import numpy as np
 import pytest
-from lattice_scenes import lattice_scene
+from factories import lattice_scene
 
 from pdem.io.checkpoint import read_checkpoint, write_checkpoint
 from pdem.parallel.comm import SerialComm

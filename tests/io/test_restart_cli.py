@@ -19,7 +19,7 @@ import h5py
 import numpy as np
 import pytest
 
-from pdem_cli import MPIEXEC, pdem_cmd, run_pdem
+from pdem_cli import MPIEXEC, needs_mpiexec, pdem_cmd, run_pdem
 from pdem.io.checkpoint import list_checkpoints, read_checkpoint
 
 # slow: 2000-step runs through `pdem run` subprocesses, killed and resumed on 1-3 ranks
@@ -66,9 +66,6 @@ walls_material = "ballast"
 # the checkpoints are written on 2 ranks; without mpiexec (a machine without MPI) on 1, and the
 # tests that need several ranks are skipped
 WRITER_RANKS = 2 if MPIEXEC.exists() else 1
-needs_mpiexec = pytest.mark.skipif(
-    not MPIEXEC.exists(), reason="multi-rank test: no mpiexec next to the Python executable"
-)
 
 
 def final_tables(out, step=N_STEPS):

@@ -10,7 +10,7 @@ from pathlib import Path
 import h5py
 import numpy as np
 import pytest
-from pdem_cli import MPIEXEC, run_pdem
+from pdem_cli import needs_mpiexec, run_pdem
 
 from analysis.groups import read_fragments
 from pdem.io.checkpoint import read_checkpoint
@@ -103,8 +103,7 @@ material = "steel"
 sense = -1
 """
 
-pytestmark = [pytest.mark.skipif(not MPIEXEC.exists(), reason="no mpiexec next to the Python executable"),
-              pytest.mark.slow]
+pytestmark = [needs_mpiexec, pytest.mark.slow]
 
 
 def final(out, step=N_STEPS):

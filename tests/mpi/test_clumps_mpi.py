@@ -1,7 +1,7 @@
 """Rigid and breakable clumps on 1, 2 and 3 ranks: the same bits, and exact restarts (SPEC 3).
 
 Run by `make test` under ``mpiexec -n 2`` and ``-n 3`` (and serially: then only determinism).
-The scene (`clump_scene.make_scene`): 60 rigid 8-sphere clumps thrown sideways and spinning and 6
+The scene (`factories.clump_scene`): 60 rigid 8-sphere clumps thrown sideways and spinning and 6
 breakable grains (bonded spheres) falling onto the floor of a box long along x, the slab axis.
 Clumps migrate between slabs with their members, straddle slab edges (members on both sides of
 the owner's edge), bonds break. Every rank also runs the scene serially and compares the gathered
@@ -9,7 +9,7 @@ parallel state bit for bit: bodies by gid (pos, vel, angvel, force, torque), clu
 vel, angvel, angmom, ori, force, torque) and the contact tables (bond history) by key.
 """
 import numpy as np
-from clump_scene import make_scene
+from factories import clump_scene
 
 from pdem.fragments import fragments
 from pdem.io.checkpoint import read_checkpoint, write_checkpoint
@@ -46,7 +46,7 @@ def gathered(comm, sim):
 
 def reference(n_steps):
     if n_steps not in _REFERENCE:
-        sim = make_scene().build(comm=SerialComm())
+        sim = clump_scene().build(comm=SerialComm())
         sim.run(n_steps)
         _REFERENCE[n_steps] = (gathered(SerialComm(), sim), sim.dt, sim.time)
     return _REFERENCE[n_steps]
@@ -88,7 +88,7 @@ def straddling_clumps(sim):
 
 def test_clumps_rank_invariance(comm):
     configure_threads(comm)
-    sim = make_scene().build(comm=comm)
+    sim = clump_scene().build(comm=comm)
     straddle = 0
     counts = []
     for _ in range(N_STEPS // 100):
@@ -112,7 +112,7 @@ def test_clumps_restart(comm, mpi_tmp_path):
     """Checkpoint at step K with partly broken bonds; restored onto this rank count and onto one
     rank, both continue to N with the reference's bits."""
     configure_threads(comm)
-    first = make_scene().build(comm=comm)
+    first = clump_scene().build(comm=comm)
     first.run(K_STEP)
     tables, meta = first.checkpoint_tables()
     path = write_checkpoint(mpi_tmp_path, K_STEP, tables, meta, comm)
@@ -123,7 +123,7 @@ def test_clumps_restart(comm, mpi_tmp_path):
     assert 0 < bonds.sum() < 360, "the checkpoint must hold intact and broken bonds"
     (ref, ref_dt, ref_time) = reference(N_STEPS)
     for what, c in ((f"restored onto {comm.size} rank(s)", comm), ("restored onto 1 rank", SerialComm())):
-        sim = make_scene().build(comm=c)
+        sim = clump_scene().build(comm=c)
         sim.restore_checkpoint(*read_checkpoint(path))
         sim.run(N_STEPS - K_STEP)
         bad = differences(gathered(c, sim), ref)

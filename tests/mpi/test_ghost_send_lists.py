@@ -6,28 +6,14 @@ Run: ``.venv/bin/mpiexec -n 3 .venv/bin/python -m mpi4py -m pytest -q --capture=
 send them to MPI_PROC_NULL at every step.)
 """
 import numpy as np
+from factories import shuffled_lattice_scene
 
 from pdem.parallel.slab_domain import SlabDomain
-from pdem.scene import Scene
-
-
-def make_scene():
-    rng = np.random.default_rng(11)
-    g = np.stack(np.meshgrid(np.arange(18), np.arange(5), np.arange(6), indexing="ij"), -1).reshape(-1, 3)
-    g = g[rng.permutation(len(g))]
-    pos = (g + 0.5) * 0.0105 + rng.uniform(-2e-4, 2e-4, (len(g), 3))
-    scene = Scene(dt="auto", damping=0.3, gravity=(0.0, 0.0, -9.81), slab_axis=0)
-    m = scene.material(density=2700.0, young=1e7, poisson=0.3, friction_angle=0.5)
-    scene.add_spheres(pos, 0.005 * rng.uniform(0.8, 1.0, len(g)), m, vel=rng.uniform(-0.5, 0.5, (len(g), 3)))
-    scene.add_wall(2, 0.0, m)
-    scene.add_wall(0, 0.0, m)
-    scene.add_wall(0, 18 * 0.0105, m)
-    return scene
 
 
 def test_send_lists(comm):
     domain = SlabDomain(comm, axis=0, balance_threshold=None) if comm.size > 1 else None
-    sim = make_scene().build(comm=comm, domain=domain)
+    sim = shuffled_lattice_scene((18, 5, 6), seed=11, slab_axis=0).build(comm=comm, domain=domain)
     d, p = sim.domain, sim.particles
     for _ in range(5):
         sim.run(200)

@@ -9,10 +9,11 @@ with them. Rolling resistance and rolling friction are on.
 """
 import numpy as np
 import pytest
+from factories import lattice_scene
+from run_files import bodies_by_gid
 
 from pdem.io.checkpoint import read_checkpoint, write_checkpoint
 from pdem.parallel.comm import SerialComm, configure_threads
-from pdem.scene import Scene
 
 N_STEPS, K_STEP = 2500, 1630
 MATERIALS = {
@@ -23,33 +24,9 @@ _REFERENCE = {}
 
 
 def make_scene(law):
-    rng = np.random.default_rng(11)
-    spacing = 0.016
-    nx, ny, nz = 18, 5, 10
-    g = np.stack(np.meshgrid(np.arange(nx), np.arange(ny), np.arange(nz), indexing="ij"), -1).reshape(-1, 3)
-    pos = (g + 0.5) * spacing + rng.uniform(-0.0005, 0.0005, (len(g), 3))
-    radius = 0.005 * rng.uniform(0.6, 1.4, len(g))
-    vel = np.zeros((len(g), 3))
-    vel[:, 0] = rng.uniform(-0.6, 0.6, len(g))
-    vel[:, 2] = rng.uniform(-0.5, 0.0, len(g))
-    angvel = rng.uniform(-20.0, 20.0, (len(g), 3))
-    scene = Scene(dt="auto", gravity=(0.0, 0.0, -9.81), slab_axis=0, law=law, dt_interval=50, check_interval=40)
-    m = scene.material(density=2700.0, **MATERIALS[law])
-    scene.add_spheres(pos, radius, m, vel=vel, angvel=angvel)
-    scene.add_wall(2, 0.0, m, sense=1)
-    scene.add_wall(0, 0.0, m, sense=1)
-    scene.add_wall(0, nx * spacing, m, sense=-1)
-    scene.add_wall(1, 0.0, m, sense=1)
-    scene.add_wall(1, ny * spacing, m, sense=-1)
-    return scene
-
-
-def by_gid(comm, sim):
-    p = sim.particles
-    n = p.n_local
-    cols = [comm.allgather_rows(getattr(p, k)[:n].copy()) for k in ("gid", "pos", "vel", "angvel", "force", "torque")]
-    o = np.argsort(cols[0])
-    return [c[o] for c in cols]
+    # 900 spheres spinning, a box long along x (the slab axis); bodies cross slab edges
+    return lattice_scene(11, (18, 5, 10), vx=0.6, vz=0.5, angvel=20.0, one_sided=True, material=MATERIALS[law],
+                         damping=0.0, slab_axis=0, law=law, dt_interval=50, check_interval=40)[0]
 
 
 def history_by_key(comm, sim):
@@ -68,7 +45,8 @@ def reference(law):
     if law not in _REFERENCE:
         ref = make_scene(law).build(comm=SerialComm())
         ref.run(N_STEPS)
-        _REFERENCE[law] = (by_gid(SerialComm(), ref), history_by_key(SerialComm(), ref), (ref.step, ref.time, ref.dt))
+        serial = SerialComm()
+        _REFERENCE[law] = (bodies_by_gid(serial, ref), history_by_key(serial, ref), (ref.step, ref.time, ref.dt))
     return _REFERENCE[law]
 
 
@@ -78,7 +56,7 @@ def same(a, b):
 
 def assert_matches(comm, sim, law, what):
     state, hist, scalars = reference(law)
-    ok = all(same(a, b) for a, b in zip(state, by_gid(comm, sim)))
+    ok = all(same(a, b) for a, b in zip(state, bodies_by_gid(comm, sim)))
     got = history_by_key(comm, sim)
     ok = ok and sorted(got) == sorted(hist) and all(same(got[k][0], hist[k][0]) and same(got[k][1], hist[k][1])
                                                      for k in hist)

@@ -4,19 +4,15 @@ N ranks: the same bits (SPEC 3).
 Run by `make test` under ``mpiexec -n 2`` and ``-n 3`` (serially: the run against a second
 serial run, i.e. determinism). Rank 0 runs the scene alone (`SerialComm`), then every rank runs
 it together; the load series, the preparation series, the fragment records and the final bodies
-and platen must be identical bit for bit (`oedometer_util.run_differences`). Twice: the CI grains
+and platen must be identical bit for bit (`run_files.run_differences`). Twice: the CI grains
 (stress-free bonds), and grains bonded on overlaps held by the pour's tenfold bond strength
 (``bond_boost``, scaled on every rank's copy of a bond) and returned mid-pour."""
-import sys
-from pathlib import Path
-
 import pytest
+from factories import oedometer_ci_doc, toml_text
+from run_files import run_differences
 
 from pdem.parallel.comm import SerialComm
 from pdem.scenes import oedometer
-
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "scenes"))
-from oedometer_util import ci_doc, run_differences, toml_text  # noqa: E402
 
 SHORT = {"settle_max_time": 0.08, "settle_min_time": 0.02, "vibration_time": 0.01, "load_time": 0.04}
 
@@ -28,7 +24,7 @@ def run_scene(doc, path, out, comm):
 
 @pytest.mark.parametrize("boost", [False, True])
 def test_oedometer_rank_invariance(comm, mpi_tmp_path, boost):
-    doc = ci_doc(**SHORT)
+    doc = oedometer_ci_doc(**SHORT)
     if boost:
         doc["oedometer"].update(bond_boost=10.0, bond_boost_time=0.01)
         doc["oedometer"]["clumps"].update(member_spacing=0.0057, stress_free=False)

@@ -9,7 +9,7 @@ Serially (one rank) the test compares two serial runs, i.e. only determinism.
 """
 import numpy as np
 import pytest
-from lattice_scenes import lattice_scene
+from factories import lattice_scene
 
 from pdem.parallel.comm import SerialComm, configure_threads
 from pdem.parallel.slab_domain import SlabDomain

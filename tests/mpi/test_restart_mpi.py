@@ -9,7 +9,8 @@ must equal the reference to the last bit. Restores of a 2-rank checkpoint onto 1
 through the command line: tests/io/test_restart_cli.py.
 """
 import numpy as np
-from lattice_scenes import lattice_scene
+from factories import lattice_scene
+from run_files import bodies_by_gid
 
 from pdem.io.checkpoint import read_checkpoint, write_checkpoint
 from pdem.parallel.comm import SerialComm, configure_threads
@@ -22,14 +23,6 @@ def make_scene():
     # 900 bodies, a box long along x (the slab axis); bodies cross slab edges
     return lattice_scene(5, (18, 5, 10), vx=0.6, vz=0.5, one_sided=True, slab_axis=0, dt_interval=50,
                          check_interval=40)[0]
-
-
-def by_gid(comm, sim):
-    p = sim.particles
-    n = p.n_local
-    cols = [comm.allgather_rows(getattr(p, k)[:n].copy()) for k in ("gid", "pos", "vel", "angvel", "force", "torque")]
-    o = np.argsort(cols[0])
-    return [c[o] for c in cols]
 
 
 def tables_by_key(comm, sim):
@@ -48,7 +41,7 @@ def reference():
         ref = make_scene().build(comm=SerialComm())
         ref.run(N_STEPS)
         c = SerialComm()
-        _REFERENCE["state"] = by_gid(c, ref)
+        _REFERENCE["state"] = bodies_by_gid(c, ref)
         _REFERENCE["tables"] = tables_by_key(c, ref)
         _REFERENCE["scalars"] = (ref.step, ref.time, ref.dt, ref.energy_reference)
     return _REFERENCE
@@ -56,7 +49,7 @@ def reference():
 
 def assert_matches(comm, sim, what):
     ref = reference()
-    for name, a, b in zip(("gid", "pos", "vel", "angvel", "force", "torque"), ref["state"], by_gid(comm, sim)):
+    for name, a, b in zip(("gid", "pos", "vel", "angvel", "force", "torque"), ref["state"], bodies_by_gid(comm, sim)):
         assert a.shape == b.shape and np.array_equal(a.view(np.uint8), b.view(np.uint8)), f"{what}: {name}"
     got = tables_by_key(comm, sim)
     assert sorted(got) == sorted(ref["tables"]), what

@@ -11,21 +11,14 @@ import math
 
 import numpy as np
 import pytest
+from factories import ball_and_steel
 
-from pdem import InputError, Scene
+from pdem import InputError
 from pdem.driver.observables import box_face_forces, box_forces
 
 G = 9.81
 R = 0.01
 R_M = 0.005
-RHO = 2600.0
-
-
-def scene(dt=1e-6, damping=0.0, gravity=G):
-    sc = Scene(dt=dt, damping=damping, gravity=(0.0, 0.0, -gravity), allow_initial_overlap=True)
-    ball = sc.material(density=RHO, young=1e8, poisson=0.3, friction_angle=0.5)
-    steel = sc.material(density=7850.0, young=1e9, poisson=0.25, friction_angle=0.5)
-    return sc, ball, steel
 
 
 def grid(n, spacing, z):
@@ -38,7 +31,7 @@ def grid(n, spacing, z):
 def trajectory(on_member, steps=3000):
     """A sphere thrown with spin onto a fixed sphere of radius R_M at (0.001, -0.002, 0): its
     own (pos, vel, angvel) each 100 steps; the fixed sphere is a box member or a sphere."""
-    sc, ball, steel = scene()
+    sc, ball, steel = ball_and_steel(gravity=G)
     start = (0.0, 0.0, R + R_M - 2e-4)
     if on_member:
         sc.add_box((0.001, -0.002, 0.0), (R_M, R_M, R_M), steel, mass=1.0, fixed=True,
@@ -72,7 +65,7 @@ def test_loaded_member_box_rests_on_fixed_spheres_newton_and_statics():
     (F + m g)/(16 k_n) with Yade's k_n of two spheres (2 E1 r1 E2 r2/(E1 r1 + E2 r2))."""
     from pdem.loads import Constant
 
-    sc, ball, steel = scene(dt=2e-6, damping=0.4)
+    sc, ball, steel = ball_and_steel(dt=2e-6, damping=0.4, gravity=G)
     offs = grid(4, 0.02, -0.01 + R_M)
     mass = 2.0
     sc.add_box((0.0, 0.0, 0.01 + R), (0.04, 0.04, 0.01), steel, mass=mass, blocked="xyXYZ", damping=0.4,
@@ -98,7 +91,7 @@ def test_loaded_member_box_rests_on_fixed_spheres_newton_and_statics():
 def test_members_give_no_flat_faces_and_bad_members_are_refused():
     """A box with members has no sphere_box contacts (a sphere inside its extents but clear of
     its members feels nothing); a member outside the box, a radius <= 0: one-line errors."""
-    sc, ball, steel = scene(gravity=0.0)
+    sc, ball, steel = ball_and_steel()
     sc.add_box((0.0, 0.0, 0.0), (0.05, 0.05, 0.05), steel, mass=1.0, fixed=True,
                members=grid(2, 0.08, 0.0), member_radius=R_M)
     sc.add_spheres([(0.0, 0.0, 0.0)], R, ball)
@@ -108,7 +101,7 @@ def test_members_give_no_flat_faces_and_bad_members_are_refused():
     assert np.array_equal(sim.bodies()["vel"][0], [0.0, 0.0, 0.0])
     for members, radius, what in (([(0.06, 0.0, 0.0)], R_M, "inside the box"), ([(0.0, 0.0, 0.0)], 0.0, "> 0"),
                                   ([[0.0, 0.0]], R_M, "[k, 3]")):
-        sc, ball, steel = scene()
+        sc, ball, steel = ball_and_steel(gravity=G)
         with pytest.raises(InputError, match=r"^boxes\[0\]\.member") as e:
             sc.add_box((0.0, 0.0, 0.0), (0.05, 0.05, 0.05), steel, mass=1.0, members=members, member_radius=radius)
         assert what in str(e.value) and "\n" not in str(e.value)

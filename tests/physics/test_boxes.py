@@ -8,33 +8,25 @@ import math
 
 import numpy as np
 import pytest
+from factories import BALL, STEEL, ball_and_steel
 
-from pdem import InputError, Scene
+from pdem import InputError
 from pdem.scenes.cycles import CycleRecorder
 from pdem.loads import Constant, Haversine
 from pdem.driver.observables import box_forces, box_positions
 
 G = 9.81
 R = 0.01
-E_S, E_B = 1e8, 1e9
-RHO = 2600.0
+E_S, E_B = BALL["young"], STEEL["young"]
+RHO = BALL["density"]
 M_S = RHO * (4.0 / 3.0) * math.pi * R ** 3
 KN_BOX = 2.0 * (E_B * R) * (E_S * R) / (E_B * R + E_S * R)  # YADE_MODEL §4 with radius1 = radius2 = r
 HALF = (0.1, 0.1, 0.05)
 
 
-def scene(dt=1e-6, damping=0.0, gravity=0.0, **kw):
-    # the cases start in contact with the box on purpose (at or near the static overlap)
-    kw.setdefault("allow_initial_overlap", True)
-    sc = Scene(dt=dt, damping=damping, gravity=(0.0, 0.0, -gravity), **kw)
-    ball = sc.material(density=RHO, young=E_S, poisson=0.3, friction_angle=0.5)
-    steel = sc.material(density=7850.0, young=E_B, poisson=0.25, friction_angle=0.5)
-    return sc, ball, steel
-
-
 def test_static_overlap_on_fixed_box():
     """A sphere resting on the top face of a fixed box (damped) reaches overlap m g/kn."""
-    sc, ball, steel = scene(dt=2e-6, damping=0.3, gravity=G)
+    sc, ball, steel = ball_and_steel(dt=2e-6, damping=0.3, gravity=G)
     sc.add_spheres([(0.03, -0.04, HALF[2] + R)], R, ball)
     sc.add_box((0.0, 0.0, 0.0), HALF, steel, mass=34.0, fixed=True)
     sim = sc.build()
@@ -63,7 +55,7 @@ def test_contact_normal_is_closest_point_direction(where):
     else:
         n = (x - q) / np.linalg.norm(x - q)
         pen = R - np.linalg.norm(x - q)
-    sc, ball, steel = scene()
+    sc, ball, steel = ball_and_steel()
     sc.add_spheres([centre], R, ball)
     sc.add_box((0.0, 0.0, 0.0), HALF, steel, mass=34.0, fixed=True)
     sim = sc.build()
@@ -79,7 +71,7 @@ def test_contact_normal_is_closest_point_direction(where):
 def _free_box_with_spheres(dt=1e-6):
     # spheres start deep in the box's faces, edges and corners (up to 0.6 r): a test of Newton's
     # third law, not of stability, so the overlap limit of the runaway guard is raised
-    sc, ball, steel = scene(dt=dt, max_overlap_ratio=1.0)
+    sc, ball, steel = ball_and_steel(dt=dt, max_overlap_ratio=1.0)
     rng = np.random.default_rng(3)
     hx, hy, hz = HALF
     pos = [(0.03, 0.01, hz + R - 0.0005), (hx + 0.004, -0.02, 0.01), (-hx - 0.003, hy + 0.004, hz + 0.005),
@@ -113,7 +105,7 @@ def test_loaded_box_settles_on_bed_of_fixed_spheres():
     """A free box (z only, own damping) under a constant downward load on 9 fixed spheres settles
     where the contact force equals load + weight, shared equally: pen = (F + M g)/(9 kn)."""
     load, mass = 200.0, 5.0
-    sc, ball, steel = scene(dt=2e-6, gravity=G)
+    sc, ball, steel = ball_and_steel(dt=2e-6, gravity=G)
     xy = [(x, y) for x in (-0.03, 0.0, 0.03) for y in (-0.03, 0.0, 0.03)]
     sc.add_spheres([(x, y, 0.0) for x, y in xy], R, ball, fixed=True)
     half = (0.05, 0.05, 0.02)
@@ -134,7 +126,7 @@ def test_blocked_dofs_hold_under_oblique_contacts():
     """A box free in z only, pushed by a sphere at its edge (oblique normal), keeps x and y exactly
     while z moves; the same box with free translations moves sideways."""
     def run(blocked):
-        sc, ball, steel = scene(dt=1e-6)
+        sc, ball, steel = ball_and_steel(dt=1e-6)
         sc.add_spheres([(HALF[0] + 0.004, 0.0, -HALF[2] - 0.006)], R, ball, fixed=True)
         sc.add_box((0.0, 0.0, 0.0), HALF, steel, mass=1.0, blocked=blocked)
         sim = sc.build()
@@ -166,7 +158,7 @@ def test_haversine_program():
 
 
 def test_box_input_errors_and_no_boxes():
-    sc, ball, steel = scene()
+    sc, ball, steel = ball_and_steel()
     for kw in (dict(mass=0.0), dict(mass=1.0, blocked="xyz"), dict(mass=1.0, blocked="q"),
                dict(mass=1.0, load=5.0), dict(mass=1.0, damping=2.0)):
         with pytest.raises(InputError) as e:
@@ -186,7 +178,7 @@ def test_haversine_on_box_and_cycle_record():
     the start, peak and end of each cycle."""
     f = 50.0
     h = Haversine(20.0, 200.0, f, 3)
-    sc, ball, steel = scene(dt=2e-6, gravity=G)
+    sc, ball, steel = ball_and_steel(dt=2e-6, gravity=G)
     xy = [(x, y) for x in (-0.03, 0.0, 0.03) for y in (-0.03, 0.0, 0.03)]
     sc.add_spheres([(x, y, 0.0) for x, y in xy], R, ball, fixed=True)
     half = (0.05, 0.05, 0.02)

@@ -310,8 +310,8 @@ THREAD_SCRIPT = textwrap.dedent("""
     sys.path.insert(0, sys.argv[3])
     from pdem import kernels
     kernels.PARALLEL_MIN = 1  # every kernel runs its parallel twin, also on this small scene
-    from clump_scene import make_scene
-    sim = make_scene().build()
+    from factories import clump_scene
+    sim = clump_scene().build()
     sim.run(1500)
     assert numba.get_num_threads() == int(sys.argv[1])
     p = sim.particles
@@ -338,7 +338,7 @@ def test_clump_thread_invariance(tmp_path):
     out = {}
     for threads in (1, 2):
         dest = tmp_path / f"state{threads}.bin"
-        r = subprocess.run([sys.executable, str(script), str(threads), str(dest), str(here.parent / "mpi")], env=env,
+        r = subprocess.run([sys.executable, str(script), str(threads), str(dest), str(here.parent)], env=env,
                            capture_output=True, text=True, timeout=600, check=False)
         assert r.returncode == 0, r.stderr[-3000:]
         out[threads] = dest.read_bytes()

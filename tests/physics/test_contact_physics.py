@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from pdem import InstabilityError, Scene
-from physics_scenes import sphere_mass
+from factories import sphere_mass
 
 R, RHO, E = 0.01, 2600.0, 1e8
 M = sphere_mass(R, RHO)

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from pdem import diagnostics
-from physics_scenes import box_scene
+from factories import box_scene
 
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parents[1]
@@ -104,7 +104,7 @@ THREAD_SCRIPT = textwrap.dedent("""
     import numba
     numba.set_num_threads(int(sys.argv[1]))
     sys.path.insert(0, sys.argv[3])
-    from physics_scenes import box_scene
+    from factories import box_scene
     from pdem import kernels
     sim = box_scene(5400, seed=7, r_min=0.0058, r_max=0.006, young=1e7, damping=0.3, vel_scale=0.5, dt=2e-6,
                     spacing=1.01).build()
@@ -132,7 +132,7 @@ def test_thread_invariance(tmp_path):
     env.pop("NUMBA_NUM_THREADS", None)
     for threads in (1, 2):
         dest = tmp_path / f"state{threads}.bin"
-        r = subprocess.run([sys.executable, str(script), str(threads), str(dest), str(HERE)], env=env,
+        r = subprocess.run([sys.executable, str(script), str(threads), str(dest), str(HERE.parent)], env=env,
                            capture_output=True, text=True, timeout=300)
         assert r.returncode == 0, r.stderr[-3000:]
         out[threads] = dest.read_bytes()

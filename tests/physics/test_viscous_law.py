@@ -15,7 +15,7 @@ import math
 
 import numpy as np
 import pytest
-from physics_scenes import sphere_mass
+from factories import sphere_mass
 
 from pdem import InputError, Scene, timestep
 from pdem.contact import viscous

@@ -1,30 +1,108 @@
-"""The box test end to end (`pdem.scenes.box_test`) through the command line, on 1, 2 and 3 ranks.
+"""The box test (`pdem.scenes.box_test`, `pdem.scenes.common.preparation`): its pieces without a run, then
+end to end through the command line on 1, 2 and 3 ranks.
 
-A small box test (about 650 spheres, stiffness scaled down, 2 cycles at 5 Hz) runs all five
-stages (pour, refill, vibrate, settle, load). The same scene on 1 and 2 ranks must give the same
-per-cycle records, load series and preparation series bit for bit; a 2-rank run resumed on 3
-ranks from a stage-boundary checkpoint, and one stopped by SIGTERM in the middle of a stage and
-resumed on 1 rank, must end with the same bits too. The run leaves the files a user looks at
-(results.h5 readable by `analysis`, PNGs, summary). Bad input stops with one line and status 2.
+Pieces: trimming, cloud sizing, sleeper placement, and friction lowered and restored for the
+vibration stage (Ip2 again).
+
+End to end (slow): a small box test (about 650 spheres, stiffness scaled down, 2 cycles at 5 Hz)
+runs all five stages (pour, refill, vibrate, settle, load). The same scene on 1 and 2 ranks must
+give the same per-cycle records, load series and preparation series bit for bit; a 2-rank run
+resumed on 3 ranks from a stage-boundary checkpoint, and one stopped by SIGTERM in the middle of a
+stage and resumed on 1 rank, must end with the same bits too. The run leaves the files a user looks
+at (results.h5 readable by `analysis`, PNGs, summary). Bad input stops with one line and status 2.
 """
 import os
 import shutil
 import signal
 import subprocess
 import time
+from math import pi, tan
 
 import h5py
 import numpy as np
 import pytest
 
 from analysis.io import read_box_test
-from pdem_cli import MPIEXEC, pdem_cmd, run_pdem
-from scene_text import BOX_MATERIALS
+from pdem_cli import needs_mpiexec, pdem_cmd, run_pdem
+from factories import BOX_MATERIALS
+from pdem.scenes.common.preparation import cloud, cloud_count
+from pdem.driver.stages import remove_above
 from pdem.io.checkpoint import list_checkpoints, read_checkpoint
+from pdem.scene import Scene
+from pdem.scenes.box_test import DEFAULTS, sleeper_geometry
 
-# slow: whole box tests through `pdem run` subprocesses on 1, 2 and 3 ranks (minutes)
-pytestmark = pytest.mark.slow
 
+# ---------------------------------------------------------------------------- pieces
+def test_remove_above_uses_the_top_of_each_sphere():
+    p = {"gid": np.arange(4), "pos": np.array([[0, 0, 0.10], [0, 0, 0.28], [0, 0, 0.29], [0, 0, 0.5]]),
+         "radius": np.array([0.01, 0.02, 0.01, 0.01])}
+    kept, removed = remove_above({"particles": p, "contacts/sphere_sphere": {"key": np.zeros(0)}}, 0.30)
+    assert removed == 2 and list(kept["particles"]["gid"]) == [0, 2]
+    assert "contacts/sphere_sphere" in kept
+
+
+def test_cloud_count_fills_the_volume_at_the_packing_fraction():
+    c = dict(DEFAULTS, radius=0.01, radius_spread=0.0, packing_fraction=0.6, overfill=1.0)
+    v = 4.0 / 3.0 * pi * 0.01**3
+    assert cloud_count(c, 1000 * v / 0.6) == 1000
+    # radii uniform in r(1 ± s): the mean volume uses E[r^3] = (b^4 - a^4) / (4 (b - a))
+    c = dict(c, radius_spread=0.4)
+    a, b = 0.006, 0.014
+    mean_v = 4.0 / 3.0 * pi * (b**4 - a**4) / (4 * (b - a))
+    assert cloud_count(c, 500 * mean_v / 0.6) in (500, 501)
+
+
+def test_cloud_stays_in_its_column_without_overlaps():
+    c = dict(DEFAULTS, radius=0.0125, radius_spread=0.3, seed=3)
+    pos, r = cloud(c, (0.0, 0.0), (0.1, 0.15), 0.2, 0.1 * 0.15 * 0.05, 3)
+    assert np.all(pos[:, 0] - r >= 0) and np.all(pos[:, 0] + r <= 0.1)
+    assert np.all(pos[:, 1] - r >= 0) and np.all(pos[:, 1] + r <= 0.15) and np.all(pos[:, 2] - r >= 0.2)
+    d = np.linalg.norm(pos[:, None] - pos[None], axis=2) - r[:, None] - r[None]
+    assert d[~np.eye(len(r), dtype=bool)].min() > 0
+
+
+def test_sleeper_sits_on_the_cut_centred_in_the_box():
+    center, half = sleeper_geometry(DEFAULTS, 0.30)
+    assert np.allclose(center, [0.35, 0.15, 0.375]) and np.allclose(half, [0.125, 0.15, 0.075])
+
+
+def test_friction_scale_reruns_ip2_for_existing_contacts_and_restores_bits():
+    scene = Scene(dt=1e-5, damping=0.3, gravity=(0, 0, -9.81), allow_initial_overlap=True)
+    a = scene.material(density=2600, young=1e7, poisson=0.3, friction_angle=0.5)
+    b = scene.material(density=7850, young=1e8, poisson=0.25, friction_angle=0.3)
+    pos = [(0, 0, 0.0095), (0.019, 0, 0.0095), (0.0095, 0.0, 0.0265)]
+    scene.add_spheres(pos, 0.01, [a, a, b])
+    scene.add_wall("z", 0.0, b, sense=1)
+    sim = scene.build()
+    sim.run(1)
+    for cl in (sim.kind("sphere_sphere").contacts, sim.kind("sphere_wall").contacts):
+        assert len(cl.real_rows()) > 0
+    before = {
+        id(cl): cl.params[: cl.n].copy()
+        for cl in (sim.kind("sphere_sphere").contacts, sim.kind("sphere_wall").contacts)
+    }
+    sim.set_friction_scale(0.1)
+    ss = sim.kind("sphere_sphere").contacts.real_rows()
+    expect = [
+        tan(0.05)
+        if {
+            int(sim.particles.material[i])
+            for i in (sim.kind("sphere_sphere").contacts.i[k], sim.kind("sphere_sphere").contacts.j[k])
+        }
+        == {0}
+        else tan(0.03)
+        for k in ss
+    ]
+    assert np.array_equal(sim.kind("sphere_sphere").contacts.params[ss, 2], expect)
+    assert np.all(sim.kind("sphere_wall").contacts.params[sim.kind("sphere_wall").contacts.real_rows(), 2] == tan(0.03))
+    assert np.array_equal(sim.props[:, 2], np.array([0.5, 0.3]) * 0.1)
+    sim.set_friction_scale(1.0)
+    for cl in (sim.kind("sphere_sphere").contacts, sim.kind("sphere_wall").contacts):
+        assert np.array_equal(cl.params[: cl.n], before[id(cl)])
+
+
+# ---------------------------------------------------------------------------- end to end
+# slow: whole box tests through `pdem run` subprocesses on 1, 2 and 3 ranks (minutes); bad input: seconds
 SCENE = """[simulation]
 dt = "auto"
 damping = 0.3
@@ -55,10 +133,6 @@ frequency = 5.0
 cycles = 2
 """
 N_CYCLES, F_MAX, SLEEPER_WEIGHT = 2, 300.0, 5.0 * 9.81
-
-needs_mpiexec = pytest.mark.skipif(
-    not MPIEXEC.exists(), reason="multi-rank test: no mpiexec next to the Python executable"
-)
 
 
 def groups(path):
@@ -101,6 +175,7 @@ def r2(scene_dir):
     return run_pdem(2, scene, base / "r2")
 
 
+@pytest.mark.slow
 def test_every_stage_runs_and_leaves_results(scene_dir, r1):
     base, _ = scene_dir
     out = base / "r1"
@@ -125,12 +200,14 @@ def test_every_stage_runs_and_leaves_results(scene_dir, r1):
     assert np.all(z - 0.04 <= 0.16 + 1e-12) and np.all(z - 0.04 > 0.08)
 
 
+@pytest.mark.slow
 @needs_mpiexec
 def test_same_bits_on_1_and_2_ranks(scene_dir, r1, r2):
     base, _ = scene_dir
     assert_same_run(base / "r1", base / "r2")
 
 
+@pytest.mark.slow
 @needs_mpiexec
 def test_resume_from_a_stage_boundary_on_3_ranks(scene_dir, r1, r2):
     base, scene = scene_dir
@@ -147,6 +224,7 @@ def test_resume_from_a_stage_boundary_on_3_ranks(scene_dir, r1, r2):
     assert_same_run(base / "r1", out)
 
 
+@pytest.mark.slow
 @needs_mpiexec
 def test_sigterm_mid_stage_then_resume_on_1_rank(scene_dir, r1):
     base, scene = scene_dir

@@ -15,7 +15,8 @@ import shutil
 import h5py
 import numpy as np
 import pytest
-from oedometer_util import CI_JOB, ci_doc, run_differences, toml_text
+from factories import OEDOMETER_CI_JOB, oedometer_ci_doc, toml_text
+from run_files import run_differences
 
 from analysis.groups import read_fragments
 from pdem.errors import InputError
@@ -43,7 +44,7 @@ from pdem_cli import run_pdem
     ({"bond_boost": 10.0, "bond_boost_time": 0.01, "clumps": {"shape": "nottingham"}}, "oedometer.bond_boost"),
 ])
 def test_input_errors_name_the_field(change, field):
-    doc = ci_doc(**change)
+    doc = oedometer_ci_doc(**change)
     with pytest.raises(InputError) as e:
         oedometer.check(doc)
     msg = str(e.value)
@@ -51,7 +52,7 @@ def test_input_errors_name_the_field(change, field):
 
 
 def test_breakable_needs_the_cohesive_law():
-    doc = ci_doc()
+    doc = oedometer_ci_doc()
     doc["simulation"]["law"] = "linear"
     for m in doc["materials"].values():
         m.pop("normal_cohesion"), m.pop("shear_cohesion")
@@ -61,15 +62,15 @@ def test_breakable_needs_the_cohesive_law():
 
 def test_grains_must_fit():
     with pytest.raises(InputError, match="oedometer.diameter"):
-        oedometer.check(ci_doc(diameter=0.012))
-    doc = ci_doc(diameter=0.03)
+        oedometer.check(oedometer_ci_doc(diameter=0.012))
+    doc = oedometer_ci_doc(diameter=0.03)
     del doc["oedometer"]["clumps"]
     with pytest.raises(InputError, match="oedometer.diameter"):
         oedometer.check(doc)
 
 
 def test_steps_refused_through_the_cli(tmp_path):
-    r = run_pdem(1, CI_JOB, tmp_path / "r", "--steps", "10", expect=2)
+    r = run_pdem(1, OEDOMETER_CI_JOB, tmp_path / "r", "--steps", "10", expect=2)
     assert "--steps" in r.stderr and len(r.stderr.strip().splitlines()) == 1
 
 
@@ -79,7 +80,7 @@ def test_cylinder_geometry():
     assert tri.shape == (48, 3, 3)
     assert np.allclose(np.hypot(tri[..., 0], tri[..., 1]), 0.15)
     assert set(np.round(tri[..., 2].ravel(), 12)) == {0.0, 0.15}
-    c = oedometer.settings(ci_doc())
+    c = oedometer.settings(oedometer_ci_doc())
     sites = oedometer.lattice_sites(c, 0.008, 0.0, 100.0, 1.0)
     assert len(sites) == 100 and np.all(np.hypot(sites[:, 0], sites[:, 1]) + 0.008 <= oedometer.inner_radius(c))
 
@@ -88,14 +89,14 @@ def test_cylinder_geometry():
 @pytest.fixture(scope="module")
 def r1(tmp_path_factory):
     out = tmp_path_factory.mktemp("oedometer") / "r1"
-    run_pdem(1, CI_JOB, out)
+    run_pdem(1, OEDOMETER_CI_JOB, out)
     return out
 
 
 @pytest.mark.slow
 def test_platen_follows_the_program(r1):
     """slow: a whole reduced oedometer through `pdem run` (~20 s on a loaded 2-core machine)."""
-    c = oedometer.settings(ci_doc())
+    c = oedometer.settings(oedometer_ci_doc())
     with h5py.File(r1 / "results.h5", "r") as f:
         assert f.attrs["kind"] == "oedometer"
         s = {k: f["series"][k][()] for k in f["series"]}
@@ -127,7 +128,7 @@ def test_fragments_and_grading(r1):
     assert labels == ["initial", "vibrated", "peak", "unloaded"]
     mass = [r.mass.sum() for r in fr.records]
     assert np.allclose(mass, mass[0], rtol=1e-12)
-    n = oedometer.intact_members(oedometer.settings(ci_doc()))
+    n = oedometer.intact_members(oedometer.settings(oedometer_ci_doc()))
     initial, peak = fr.records[0], fr.records[2]
     assert np.all(initial.n_members == n)  # whole grains after the cut
     assert len(peak.n_members) > len(initial.n_members) and peak.n_members.min() == 1  # breakage at F_max
@@ -154,14 +155,14 @@ def test_resume_after_a_stage_checkpoint(r1, tmp_path):
             if f["fragments"][label].attrs["step"] > step:
                 del f["fragments"][label]
     shutil.rmtree(got / "analysis")
-    r = run_pdem(1, CI_JOB, got)
+    r = run_pdem(1, OEDOMETER_CI_JOB, got)
     assert "resuming" in r.stdout
     assert run_differences(r1, got) == []
 
 
 def test_bond_push_is_the_overlap_force_over_the_normal_strength():
     """k_n δ / a_N = E r (2r − s) / (c r²) for equal members r a grid spacing s apart."""
-    doc = ci_doc()
+    doc = oedometer_ci_doc()
     doc["oedometer"]["clumps"].update(member_spacing=0.0057, stress_free=False)
     m, r = doc["materials"]["ballast"], 0.003
     expect = m["young"] * r * (2 * r - 0.0057) / (m["normal_cohesion"] * r * r)
@@ -178,7 +179,7 @@ def test_bond_boost_holds_grains_made_on_overlaps(tmp_path):
     every grain is whole after the cut."""
     runs = {}
     for boost in (1.0, 10.0):
-        doc = ci_doc(bond_boost=boost, bond_boost_time=0.01)
+        doc = oedometer_ci_doc(bond_boost=boost, bond_boost_time=0.01)
         doc["oedometer"]["clumps"].update(member_spacing=0.0057, stress_free=False)
         scene = tmp_path / f"boost_{boost:g}.toml"
         scene.write_text(toml_text(doc))
@@ -196,7 +197,7 @@ def test_scene_file_round_trip(tmp_path):
     """The helper's TOML writer keeps the CI scene (the MPI test writes variants with it)."""
     import tomllib
 
-    doc = ci_doc(load_time=0.05)
+    doc = oedometer_ci_doc(load_time=0.05)
     assert tomllib.loads(toml_text(doc)) == doc
 
 
@@ -206,7 +207,7 @@ def test_the_scaled_thesis_size_job_is_the_thesis_job_scaled():
     [oedometer] changed; both pass the scene's checks."""
     import tomllib
 
-    jobs = CI_JOB.parent
+    jobs = OEDOMETER_CI_JOB.parent
     thesis, scaled = (tomllib.loads((jobs / f"oedometer_breakable{suffix}.toml").read_text())
                       for suffix in ("", "_scaled"))
     s = 1e-2
@@ -232,7 +233,7 @@ def test_the_small_member_job_is_the_scaled_job_with_the_spheres_of_table_4_15()
     grid, "135 and more" of them; each bond a quarter of eq. 4.3's a_N (c r² with r = d/2)."""
     import tomllib
 
-    jobs = CI_JOB.parent
+    jobs = OEDOMETER_CI_JOB.parent
     scaled, small = (tomllib.loads((jobs / f"oedometer_breakable_scaled{suffix}.toml").read_text())
                      for suffix in ("", "_small_members"))
     members = oedometer.settings(small)["grain"]["members"]
@@ -255,13 +256,15 @@ def test_the_thesis_grain_job_is_the_scaled_job_with_the_grain_and_preparation_o
     the tenfold strength of the pour's first steps; nothing else changed."""
     import tomllib
 
-    jobs = CI_JOB.parent
+    jobs = OEDOMETER_CI_JOB.parent
     scaled, job = (tomllib.loads((jobs / f"oedometer_breakable_scaled{suffix}.toml").read_text())
                    for suffix in ("", "_thesis_grain"))
     oedometer.check(job)
     c = oedometer.settings(job)
     assert len(c["grain"]["members"]) == 136
-    assert 1.0 < oedometer.bond_push(job, c) < 10.0 == c["bond_boost"]
+    push = oedometer.bond_push(job, c)
+    assert push > 1.0, push  # released at once, the bonds break
+    assert push < c["bond_boost"], (push, c["bond_boost"])  # held at the boosted strength, they do not
     grain = job["oedometer"].pop("clumps")
     preparation = {k: job["oedometer"].pop(k) for k in ("bond_boost", "bond_boost_time", "lattice_gap")}
     assert scaled["oedometer"].pop("clumps") == {"shape": "nottingham", "breakable": True}

@@ -2,35 +2,13 @@
 builders give the same lists and the same bits as the plain algorithms (no MPI)."""
 import numpy as np
 import pytest
+from factories import shuffled_lattice, shuffled_lattice_scene
 
 from pdem import neighbors
 from pdem.contacts import ContactList, carry_history, carry_history_by_first, sphere_pair_keys
 from pdem.parallel.comm import SerialComm
 from pdem.parallel.slab_domain import SlabDomain
-from pdem.scene import Scene
 from pdem.state import FIELDS, SCRATCH, Particles
-
-
-def packing(n_side=(8, 5, 6), seed=5, spacing=0.0105):
-    """A jittered lattice of spheres (r = 4-5 mm, not touching) in a random order, moving."""
-    rng = np.random.default_rng(seed)
-    g = np.stack(np.meshgrid(*(np.arange(k) for k in n_side), indexing="ij"), -1).reshape(-1, 3)
-    g = g[rng.permutation(len(g))]
-    pos = (g + 0.5) * spacing + rng.uniform(-2e-4, 2e-4, (len(g), 3))
-    radius = 0.005 * rng.uniform(0.8, 1.0, len(g))
-    vel = rng.uniform(-0.5, 0.5, (len(g), 3))
-    return pos, radius, vel
-
-
-def box_scene(skin=None):
-    pos, radius, vel = packing()
-    scene = Scene(dt="auto", damping=0.3, gravity=(0.0, 0.0, -9.81), skin=skin)
-    m = scene.material(density=2700.0, young=1e7, poisson=0.3, friction_angle=0.5)
-    scene.add_spheres(pos, radius, m, vel=vel)
-    scene.add_wall(2, 0.0, m)
-    scene.add_wall(0, 0.0, m)
-    scene.add_wall(0, 8 * 0.0105, m)
-    return scene
 
 
 def by_gid(sim):
@@ -70,7 +48,7 @@ def test_permute_local_moves_every_column_and_keeps_ghosts():
 
 
 def test_rows_in_cell_order_after_a_rebuild():
-    sim = box_scene().build()
+    sim = shuffled_lattice_scene().build()
     p = sim.particles
     cell = 2.0 * p.radius[: p.n_local].max() + sim.skin
     lo, dims, cs, _, _ = neighbors.bin_cells(p.pos, p.n_local, cell, 8 * p.n_local + 1000)
@@ -80,13 +58,14 @@ def test_rows_in_cell_order_after_a_rebuild():
     assert not np.array_equal(p.gid[: p.n_local], np.arange(p.n_local))  # the packing was reordered
 
 
+@pytest.mark.jit
 @pytest.mark.parametrize("domain", [None, "slab"])
 @pytest.mark.slow  # runs the scene twice per domain
 def test_scrambled_rows_give_the_same_bits(domain):
     """Scramble the owned rows (and rebuild) mid-run: the trajectory by gid is bit-identical."""
     dom = (lambda: SlabDomain(SerialComm(), axis=0)) if domain else (lambda: None)
-    a = box_scene().build(comm=SerialComm(), domain=dom())
-    b = box_scene().build(comm=SerialComm(), domain=dom())
+    a = shuffled_lattice_scene().build(comm=SerialComm(), domain=dom())
+    b = shuffled_lattice_scene().build(comm=SerialComm(), domain=dom())
     a.run(2000)
     b.run(2000)
     rng = np.random.default_rng(1)
@@ -103,11 +82,12 @@ def test_scrambled_rows_give_the_same_bits(domain):
     assert real > 20 and a.n_rebuilds > 100  # contacts carried through the scramble, many rebuilds
 
 
+@pytest.mark.jit
 def test_the_skin_changes_the_rebuilds_not_the_bits():
     """A thin skin (0.05 r: many more rebuilds, fewer candidate rows) and the default r/4 give the
     same trajectory by gid (jobs/box_test_full_10.toml runs at a 1 mm skin for speed)."""
-    a = box_scene().build(comm=SerialComm())
-    b = box_scene(skin=0.00025).build(comm=SerialComm())
+    a = shuffled_lattice_scene().build(comm=SerialComm())
+    b = shuffled_lattice_scene(skin=0.00025).build(comm=SerialComm())
     a.run(3000)
     b.run(3000)
     ra, rb = by_gid(a), by_gid(b)
@@ -118,10 +98,11 @@ def test_the_skin_changes_the_rebuilds_not_the_bits():
     assert len(a.kind("sphere_sphere").contacts.real_rows()) > 20
 
 
+@pytest.mark.jit
 def test_state0_rows_are_clear():
     """ContactList invariant the force loop relies on: a row with state 0 has zero history and
     zero outputs (rows, or a sphere pair's slots), after steps and right after a rebuild."""
-    sim = box_scene().build()
+    sim = shuffled_lattice_scene().build()
     for _ in range(4):
         sim.run(60)
         for cl in (sim.kind("sphere_sphere").contacts, sim.kind("sphere_wall").contacts):
@@ -138,17 +119,18 @@ def test_state0_rows_are_clear():
         sim.rebuild()
 
 
+@pytest.mark.jit
 def test_one_rank_slab_domain_sends_no_ghosts():
     """On the first (and last) rank no body goes to the missing neighbour (-1 in the ghost
     destinations used to select every body on rank 0)."""
-    sim = box_scene().build(comm=SerialComm(), domain=SlabDomain(SerialComm(), axis=0))
+    sim = shuffled_lattice_scene().build(comm=SerialComm(), domain=SlabDomain(SerialComm(), axis=0))
     sim.run(30)
     assert sim.domain.send_lo.size == 0 and sim.domain.send_hi.size == 0
 
 
 @pytest.mark.parametrize("n_local_frac", [1.0, 0.7])
 def test_sphere_pairs_match_brute_force(n_local_frac):
-    pos, radius, _ = packing((5, 4, 4), seed=2)
+    pos, radius, _ = shuffled_lattice((5, 4, 4), seed=2)
     n = len(pos)
     gid = np.random.default_rng(3).permutation(n).astype(np.int64) * 3 + 7
     nl = int(n * n_local_frac)
@@ -168,7 +150,7 @@ def test_sphere_pairs_dense_cluster_widens_the_buffer():
 
 
 def test_incidence_sorted_by_partner_gid():
-    pos, radius, _ = packing((5, 4, 4), seed=6)
+    pos, radius, _ = shuffled_lattice((5, 4, 4), seed=6)
     n = len(pos)
     gid = np.random.default_rng(7).permutation(n).astype(np.int64)
     nl = n - 10
@@ -183,6 +165,7 @@ def test_incidence_sorted_by_partner_gid():
         assert len(rows) == np.count_nonzero(pi == b) + np.count_nonzero(pj == b)
 
 
+@pytest.mark.jit
 @pytest.mark.parametrize("sparse", [False, True])
 def test_carry_by_first_gid_equals_hash_carry(sparse):
     rng = np.random.default_rng(8)
@@ -210,8 +193,9 @@ def test_carry_by_first_gid_equals_hash_carry(sparse):
         assert out[0][0].sum() > 100
 
 
+@pytest.mark.jit
 def test_replace_with_key_shift_equals_plain_replace():
-    pos, radius, _ = packing((5, 4, 4), seed=9)
+    pos, radius, _ = shuffled_lattice((5, 4, 4), seed=9)
     n = len(pos)
     gid = np.arange(n, dtype=np.int64)
     pi, pj = neighbors.build_sphere_pairs(pos, radius, gid, n, n, 0.002, 2 * radius.max() + 0.002, 8 * n + 1000)

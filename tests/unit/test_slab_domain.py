@@ -89,6 +89,7 @@ def small_scene():
     return scene
 
 
+@pytest.mark.jit
 def test_slab_domain_on_one_rank_matches_serial_domain():
     a = small_scene().build(comm=SerialComm())
     b = small_scene().build(comm=SerialComm(), domain=SlabDomain(SerialComm(), axis=0))

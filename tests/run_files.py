@@ -1,6 +1,6 @@
-"""Helpers of the oedometer tests: the CI scene file with changes, and bit-for-bit comparison of
-two runs' HDF5 outputs and final checkpoints."""
-import tomllib
+"""What a run holds or wrote, for the tests that compare runs bit for bit: the bodies of a running
+simulation gathered from every rank in gid order, every dataset of an HDF5 file, and what differs
+between two runs' HDF5 outputs and final checkpoints."""
 from pathlib import Path
 
 import h5py
@@ -8,21 +8,14 @@ import numpy as np
 
 from pdem.io.checkpoint import list_checkpoints, read_checkpoint
 
-CI_JOB = Path(__file__).resolve().parents[2] / "jobs" / "oedometer_ci.toml"
 
-
-def ci_doc(**oedometer):
-    """The parsed CI job with ``oedometer`` keys replaced."""
-    doc = tomllib.loads(CI_JOB.read_text())
-    doc["oedometer"].update(oedometer)
-    return doc
-
-
-def toml_text(doc):
-    """TOML text of a parsed scene file (tables of scalars, lists and subtables)."""
-    from pdem.campaign.tomlw import dumps
-
-    return dumps(doc)
+def bodies_by_gid(comm, sim):
+    """[gid, pos, vel, angvel, force, torque] of every owned body on every rank, by gid."""
+    p = sim.particles
+    n = p.n_local
+    cols = [comm.allgather_rows(getattr(p, k)[:n].copy()) for k in ("gid", "pos", "vel", "angvel", "force", "torque")]
+    o = np.argsort(cols[0])
+    return [c[o] for c in cols]
 
 
 def datasets(path):
