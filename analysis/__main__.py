@@ -15,9 +15,10 @@ import argparse
 import sys
 from pathlib import Path
 
+from pdem.format.read import ResultFileError, read_box_test
+
 from . import blast, grading, oedometer, track
 from .box import analyse_box
-from .io import ResultFileError, read_box_test
 from .plots import plot_loops, plot_settlement, plot_stiffness
 from .stiffness import LOADING_WINDOW, UNLOADING_FRACTION
 from .summary import write_summary_json, write_summary_text

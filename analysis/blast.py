@@ -1,7 +1,7 @@
 """Blast layer: stress on the ceiling, its impulse and the amplification (SPEC 2.5; Szklennik,
 "Prognoza redukcji ciśnienia wybuchu warstwą materiału ziarnistego", Biuletyn WAT 65(3), 2016).
 
-This module owns the analysis of a kind "blast" result (layout in `analysis.schema`), its
+This module owns the analysis of a kind "blast" result (layout in `pdem.format.schema`), its
 figure and tables (``blast.png``, ``blast.txt``, ``blast.json``), and the comparison of several
 runs (seeds x plates: ``blast_compare.txt``, ``.json``, ``.png``). Quantities:
 
@@ -40,8 +40,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .groups import BlastParameters, read_blast, results_file
-from .io import Results
+from pdem.format.groups import BlastParameters, read_blast
+from pdem.format.read import Results, results_file
 
 ARRIVAL_FRACTION = 0.05
 PAPER_INPUT_IMPULSE = 5.0e3   # [Pa s] = 5e-3 MPa s
@@ -145,7 +145,7 @@ def analyse_blast(results: Results, params: BlastParameters,
 
     Parameters
     ----------
-    results, params : from `analysis.groups.read_blast`
+    results, params : from `pdem.format.groups.read_blast`
     until : float [s], optional
         Integrate up to this time (default: the whole record).
 

@@ -19,8 +19,9 @@ last|first|max|min|mean (default last); or ``series.NAME`` with AT last|first|ma
 the same without ``@``: per-cycle curves are drawn against the cycle number, series against the
 time since their first sample. Only members whose run.json says done (exit 0) are used.
 
-This module owns the manifest reader of the analysis side, quantities, curves and grouping.
-Imports numpy, scipy (through `analysis.variability`), h5py and, for the plots, matplotlib; never pdem.
+This module owns the campaign as the analysis sees it (members and their cost), quantities, curves
+and grouping; the manifest and run records are read by `pdem.format.campaign`. Imports numpy,
+scipy (through `analysis.variability`), `pdem.format` and, for the plots, matplotlib.
 """
 
 from __future__ import annotations
@@ -32,10 +33,11 @@ from pathlib import Path
 
 import numpy as np
 
-from .io import ResultFileError, read_box_test, read_results
+from pdem.format.campaign import ManifestError, read_manifest, read_run
+from pdem.format.read import ResultFileError, read_box_test, read_results
+
 from .variability import variability
 
-MANIFEST = "campaign.json"
 AT_WORDS = ("last", "first", "max", "min", "mean")
 PER_CYCLE = {"stiffness": ("loading", "unloading", "resilient"),
              "settlement": ("permanent", "plastic", "resilient")}
@@ -100,20 +102,13 @@ def read_campaign(path) -> Campaign:
     """The manifest and members of a campaign directory (CampaignError if it is not one)."""
     path = Path(path)
     try:
-        man = json.loads((path / MANIFEST).read_text())
-    except FileNotFoundError:
-        raise CampaignError(f"{path}: not a campaign directory (no {MANIFEST})") from None
-    except ValueError as err:
-        raise CampaignError(f"{path / MANIFEST}: not valid JSON ({err})") from None
-    if not isinstance(man, dict) or man.get("format") != "pdem-campaign" or man.get("version") != 1:
-        raise CampaignError(f"{path / MANIFEST}: not a pdem campaign manifest of version 1")
+        man = read_manifest(path)
+    except ManifestError as err:
+        raise CampaignError(str(err)) from None
     members = []
     for e in man.get("members", []):
         d = path / e["dir"]
-        try:
-            rec = json.loads((d / "run.json").read_text())
-        except (FileNotFoundError, ValueError):
-            rec = None
+        rec = read_run(d)
         attempts = (rec or {}).get("attempts") or []
         last = attempts[-1] if attempts else None
         done = bool(last and last.get("end") and last.get("exit") == 0)

@@ -2,7 +2,7 @@
 breakable clumps, and the identification of E_k by equal unloading stiffness (SPEC 2.2; thesis
 ch. 4.3, 4.4, table 4.14; Nottingham test, Lim 2004).
 
-This module owns the analysis of a kind "oedometer" result (layout in `analysis.schema`:
+This module owns the analysis of a kind "oedometer" result (layout in `pdem.format.schema`:
 ``platen_force`` [N, the ballast on the platen, up], ``platen_load`` [N, the program],
 ``platen_displacement`` [m, down, zero when loading starts]) and writes ``oedometer.png``
 (force–displacement with the unloading branch enlarged, as the thesis's figures, and the
@@ -34,8 +34,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .groups import results_file
-from .io import ResultFileError, read_results
+from pdem.format.read import ResultFileError, open_results, read_results, results_file
+
 from .stiffness import LOADING_WINDOW, loading_stiffness, slope, unloading_stiffness
 
 OEDOMETER_SERIES = ("platen_load", "platen_force", "platen_displacement")
@@ -170,9 +170,7 @@ def run_oedometer(run_or_file, out=None, intact_members=135) -> list[Path]:
     out.mkdir(parents=True, exist_ok=True)
     lines = result_lines(r)
     written = [plot_oedometer(res.series, r, out / "oedometer.png")]
-    import h5py
-
-    with h5py.File(res.path, "r") as fh:
+    with open_results(res.path) as fh:
         has_fragments = "fragments" in fh and len(fh["fragments"]) > 0
     if has_fragments:
         written += grading.run_grading(res.path, out, intact_members=intact_members)

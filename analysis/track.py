@@ -2,7 +2,7 @@
 contact force distributions (SPEC 2.4; thesis ch. 6 and the multi-sleeper track it left for
 future work).
 
-This module owns the analysis of a kind "track" result (layout in `analysis.schema`: per-sleeper
+This module owns the analysis of a kind "track" result (layout in `pdem.format.schema`: per-sleeper
 series ``/track``, the per-passage table ``/passages``, force records ``/forces/<label>``), its
 figures (``track_settlement.png``: permanent settlement along the track per passage and a
 passage x sleeper map; ``track_voids.png``; ``track_forces.png``: histograms and exceedance
@@ -33,7 +33,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .groups import ForceRecord, TrackRecord, read_track, results_file
+from pdem.format.groups import ForceRecord, TrackRecord, read_track
+from pdem.format.read import results_file
 
 HANGING_GAP = 1e-4   # [m] a gap above this (0.1 mm) counts as a hanging sleeper
 MAX_LINES = 12       # passages drawn as lines (evenly chosen, always the first and last)

@@ -22,7 +22,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "jobs"))
-from analysis.groups import read_track  # noqa: E402
+from pdem.format.groups import read_track  # noqa: E402
 from thesis_box import merge, to_toml  # noqa: E402
 
 THESIS_MM = 16.0  # thesis fig. 6.6: "about 16 mm" at the peak of 0 -> 2 kN -> 0

@@ -3,6 +3,6 @@
 Owns the run loop with progress, stop signals and scheduled checkpoints (`runloop`), the plain
 run of a scene file (`plain`), the generic staged run and its table operations (`stages`), the
 observables it records (`observables`, `cycles`), the results files it writes in the format of
-`analysis.schema` (`results`) and its plots (`plots`). Layers: scenes and jobs → driver →
+`pdem.format.schema` (`results`) and its plots (`plots`). Layers: scenes and jobs → driver →
 engine; the engine never imports the driver, the driver never imports the scenes.
 """

@@ -1,7 +1,7 @@
 """A plain run of a scene file: the scene as declared, for run.steps steps, with output.
 
 `run_scene_file(path, out_dir)` runs on every rank. It writes to `out_dir`: ``results.h5``
-(`analysis.schema`, kind from run.kind: /series of time, energies (kinetic, elastic,
+(`pdem.format.schema`, kind from run.kind: /series of time, energies (kinetic, elastic,
 potential, their total), contacts, the largest overlap, unbalanced force, floor force; root
 attribute ``external_work``; /fragments every run.fragments_every steps if set,
 `pdem.driver.fragments`), ``snapshots.h5``/``.xmf`` if the scene asks, checkpoints in ``checkpoints/``
@@ -12,7 +12,7 @@ valid checkpoint and appends to its results; ``fresh`` removes the old checkpoin
 import time as _time
 from pathlib import Path
 
-from analysis.schema import RUN_SERIES, fragment_label
+from ..format.schema import RUN_SERIES, fragment_label
 
 from ..version import __version__
 from ..config import run_settings, scene_from_dict

@@ -44,7 +44,7 @@ clumps), placements and settling are per body, not per sphere shape.
 from math import cos, pi, sin
 
 import numpy as np
-from analysis.schema import PREPARATION_SERIES
+from ..format.schema import PREPARATION_SERIES
 
 from ..errors import InputError
 from ..generators import loose_cloud

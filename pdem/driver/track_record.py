@@ -23,7 +23,7 @@ Only rank 0 writes; the others go through the same calls (the collectives inside
 """
 import h5py
 import numpy as np
-from analysis import schema
+from ..format import schema
 
 from . import observables
 from .results import series_writer

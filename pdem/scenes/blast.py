@@ -51,7 +51,7 @@ from pathlib import Path
 
 import numpy as np
 
-from analysis.schema import BLAST_RUN_SERIES, PREPARATION_SERIES, write_blast_parameters
+from ..format.schema import BLAST_RUN_SERIES, PREPARATION_SERIES, write_blast_parameters
 
 from ..boxes import blocked_mask
 from ..config import check_keys, run_settings, scene_from_dict

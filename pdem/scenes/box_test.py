@@ -48,7 +48,7 @@ series ``sleeper_load``, ``sleeper_force`` [N, ballast reaction, positive up],
 ``stiffness.png``, ``analysis.txt``) and ``summary.txt`` with the timing table.
 """
 import numpy as np
-from analysis.schema import BOX_TEST_SERIES
+from ..format.schema import BOX_TEST_SERIES
 
 from ..config import CLUMP_KEYS, check_keys, grain_shape, run_settings, scene_from_dict
 from ..diagnostics import kinetic_energy

@@ -49,7 +49,7 @@ unloading stiffness, grading curves and breakage indices) and ``summary.txt`` wi
 from math import cos, pi
 
 import numpy as np
-from analysis.schema import OEDOMETER_SERIES
+from ..format.schema import OEDOMETER_SERIES
 
 from ..bonds import touching_pairs
 from ..config import CLUMP_KEYS, check_keys, grain_shape, run_settings, scene_from_dict

@@ -21,7 +21,7 @@ import pytest
 from pdem_cli import run_pdem
 
 from analysis.blast import analyse_blast
-from analysis.groups import read_blast
+from pdem.format.groups import read_blast
 from pdem.io.checkpoint import list_checkpoints, read_checkpoint
 
 SCENE = (Path(__file__).with_name("blast_ci.toml")).read_text()

@@ -17,7 +17,7 @@ import h5py
 import numpy as np
 import pytest
 
-from analysis.io import read_box_test
+from pdem.format.read import read_box_test
 from pdem_cli import MPIEXEC, pdem_cmd, run_pdem
 from scene_text import BOX_MATERIALS
 from pdem.io.checkpoint import list_checkpoints, read_checkpoint

@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 from oedometer_util import CI_JOB, ci_doc, run_differences, toml_text
 
-from analysis.groups import read_fragments
+from pdem.format.groups import read_fragments
 from pdem.errors import InputError
 from pdem.io.checkpoint import list_checkpoints
 from pdem.scenes import oedometer

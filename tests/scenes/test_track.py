@@ -20,7 +20,7 @@ import numpy as np
 import pytest
 
 from analysis.track import analyse_track, passage_table
-from analysis.groups import read_track
+from pdem.format.groups import read_track
 from pdem_cli import MPIEXEC, run_pdem
 from scene_text import BOX_MATERIALS
 from pdem.io.checkpoint import list_checkpoints, read_checkpoint

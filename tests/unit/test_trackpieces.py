@@ -7,7 +7,7 @@ import h5py
 import numpy as np
 import pytest
 
-from analysis import schema
+from pdem.format import schema
 from analysis.track import passage_table
 from pdem.driver import observables
 from pdem.driver.track_record import PassageTracker, TrackWriter, write_sleepers
