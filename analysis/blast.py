@@ -258,7 +258,7 @@ def plot_blast(result: BlastAnalysis, path) -> Path:
     """sigma_0(t) with the input pressure, plate motion, and the cumulative impulse."""
     from matplotlib.figure import Figure
 
-    from .plots import _save
+    from .figures import save
 
     s, p = result.results.series, result.params
     keep = slice(0, len(result.time))
@@ -298,7 +298,7 @@ def plot_blast(result: BlastAnalysis, path) -> Path:
     ax_i.legend(fontsize="x-small", loc="lower right")
     for ax in (ax_s, ax_p, ax_i):
         ax.grid(True, alpha=0.3)
-    return _save(fig, path)
+    return save(fig, path)
 
 
 # --- several runs: mean and scatter per plate ---
@@ -387,7 +387,7 @@ def plot_compare(groups, path) -> Path:
     """I_s per plate (mean ± std and each run) against the paper's values."""
     from matplotlib.figure import Figure
 
-    from .plots import _save
+    from .figures import save
 
     fig = Figure(figsize=(7.0, 5.0), layout="constrained")
     ax = fig.add_subplot()
@@ -404,7 +404,7 @@ def plot_compare(groups, path) -> Path:
            title="Impulse on the ceiling per plate")
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize="small")
-    return _save(fig, path)
+    return save(fig, path)
 
 
 # --- command line ---
@@ -412,9 +412,13 @@ def plot_compare(groups, path) -> Path:
 def run_blast(runs, out=None, until=None) -> list[Path]:
     """Analyse one or more blast runs; with several, also compare them (needs `out`)."""
     paths = [results_file(r) for r in runs]
+    return write_blast(paths, [analyse_blast(*read_blast(p), until=until) for p in paths], out)
+
+
+def write_blast(paths, analyses, out=None) -> list[Path]:
+    """The files of `run_blast` for the analyses of the results files ``paths``."""
     if len(paths) > 1 and out is None:
         raise ValueError("several runs need --out DIR for the comparison")
-    analyses = [analyse_blast(*read_blast(p), until=until) for p in paths]
     written = []
     names = _run_names(paths)
     for path, name, result in zip(paths, names, analyses):

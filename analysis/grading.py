@@ -435,7 +435,7 @@ def plot_grading(result: GradingAnalysis, path) -> Path:
     """Grading curves, one per record: % passing by member count and by sieve diameter."""
     from matplotlib.figure import Figure
 
-    from .plots import _save
+    from .figures import save
 
     fig = Figure(figsize=(11.0, 4.8), layout="constrained")
     ax_n, ax_d = fig.subplots(1, 2)
@@ -468,7 +468,7 @@ def plot_grading(result: GradingAnalysis, path) -> Path:
     ax_n.set_title("Grading by number of spheres")
     ax_d.set_title("Grading by sieve diameter")
     ax_n.legend(fontsize="small", loc="upper left")
-    return _save(fig, path)
+    return save(fig, path)
 
 
 def run_grading(run_or_file, out=None, reference=None, intact_members=INTACT_MEMBERS,

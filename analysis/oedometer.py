@@ -36,6 +36,7 @@ import numpy as np
 
 from pdem.format.read import ResultFileError, open_results, read_results, results_file
 
+from .figures import figure, save
 from .stiffness import LOADING_WINDOW, loading_stiffness, slope, unloading_stiffness
 
 OEDOMETER_SERIES = ("platen_load", "platen_force", "platen_displacement")
@@ -126,14 +127,9 @@ def result_lines(r: OedometerResult) -> list[str]:
 
 def plot_oedometer(series, r: OedometerResult, path) -> Path:
     """Force–displacement, the unloading branch enlarged in an inset."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
     f, u, load = (np.asarray(series[k]) for k in ("platen_force", "platen_displacement", "platen_load"))
     peak = int(np.argmax(load))
-    fig, ax = plt.subplots(figsize=(7, 5))
+    fig, ax = figure(7, 5)
     ax.plot(u * MM, f * KN, label="ballast on the platen")
     ax.plot(u * MM, load * KN, lw=0.8, ls="--", label="applied load")
     ax.set_xlabel("platen displacement u [mm]")
@@ -153,11 +149,7 @@ def plot_oedometer(series, r: OedometerResult, path) -> Path:
     ins.plot((u[peak:] - u[peak]) * MM, f[peak:] * KN)
     ins.set_title("unloading (u - u_peak [mm], F [kN])", fontsize="x-small")
     ins.tick_params(labelsize="x-small")
-    fig.tight_layout()
-    path = Path(path)
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
-    return path
+    return save(fig, path)
 
 
 def run_oedometer(run_or_file, out=None, intact_members=135) -> list[Path]:

@@ -65,6 +65,7 @@ from pdem.format.campaign import ATTEMPT_MARK, LOG, read_run
 from pdem.format.read import read_results
 
 from .campaign import CampaignError, read_campaign
+from .figures import save
 
 TOLERANCE = 0.10          # largest rise of the mechanical energy over the largest kinetic+elastic [-]
 VERDICTS = ("stable", "stopped", "FAILED", "incomplete", "pending")
@@ -498,8 +499,7 @@ def plot_stability(path, verdicts, tolerance):
     if drawn:
         ax2.legend(fontsize=7, ncol=2)
     fig.suptitle(summary_line(verdicts), fontsize=10)
-    fig.savefig(path, dpi=110)
-    return Path(path)
+    return save(fig, path, dpi=110)
 
 
 def add_parser(sub):

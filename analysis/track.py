@@ -264,7 +264,7 @@ def plot_settlement_map(result: TrackAnalysis, path) -> Path:
     from matplotlib.figure import Figure
     from matplotlib.ticker import MaxNLocator
 
-    from .plots import _save
+    from .figures import save
 
     rec = result.record
     perm = rec.passages["settlement_permanent"] * MM
@@ -290,14 +290,14 @@ def plot_settlement_map(result: TrackAnalysis, path) -> Path:
     ax_map.xaxis.set_major_locator(MaxNLocator(integer=True))
     ax_map.yaxis.set_major_locator(MaxNLocator(integer=True))
     ax_map.set(xlabel="sleeper [-]", ylabel="passage [-]", title="Settlement: passage × sleeper")
-    return _save(fig, path)
+    return save(fig, path)
 
 
 def plot_voids(result: TrackAnalysis, path) -> Path:
     """Gap under each sleeper per passage, and the mean, largest gap and hanging sleepers."""
     from matplotlib.figure import Figure
 
-    from .plots import _save
+    from .figures import save
 
     rec = result.record
     gap = rec.passages["gap"] * MM
@@ -324,14 +324,14 @@ def plot_voids(result: TrackAnalysis, path) -> Path:
     h1, l1 = ax_p.get_legend_handles_labels()
     h2, l2 = ax_h.get_legend_handles_labels()
     ax_p.legend(h1 + h2, l1 + l2, fontsize="x-small")
-    return _save(fig, path)
+    return save(fig, path)
 
 
 def plot_forces(result: TrackAnalysis, path) -> Path:
     """Histogram of f/<f> and exceedance P(F >= f), one curve per instant, per contact kind."""
     from matplotlib.figure import Figure
 
-    from .plots import _save
+    from .figures import save
 
     kinds = [k for k in ("sleeper_ballast", "ballast_ballast")
              if any(k in v for v in result.forces.values())]
@@ -368,14 +368,14 @@ def plot_forces(result: TrackAnalysis, path) -> Path:
         for ax in row:
             ax.grid(True, which="both", alpha=0.3)
         ax_h.legend(fontsize="x-small")
-    return _save(fig, path)
+    return save(fig, path)
 
 
 def plot_sleepers(result: TrackAnalysis, path) -> Path:
     """Settlement and ballast force of each sleeper in time, passages shaded."""
     from matplotlib.figure import Figure
 
-    from .plots import _save
+    from .figures import save
 
     rec = result.record
     t = rec.results.series["time"]
@@ -396,7 +396,7 @@ def plot_sleepers(result: TrackAnalysis, path) -> Path:
         ax.grid(True, alpha=0.3)
     if rec.n_sleepers <= 12:
         ax_s.legend(fontsize="x-small", ncol=2)
-    return _save(fig, path)
+    return save(fig, path)
 
 
 def run_track(run_or_file, out=None, hanging_gap=HANGING_GAP) -> list[Path]:

@@ -44,14 +44,13 @@ clumps), placements and settling are per body, not per sphere shape.
 from math import cos, pi, sin
 
 import numpy as np
-from ..format.schema import PREPARATION_SERIES
 
 from ..errors import InputError
+from ..format.schema import PREPARATION_SERIES
 from ..generators import loose_cloud
 from ..validate import number
 from . import observables
 from .plain import write_snapshot
-from .plots import plot_energy, save_figure, series_figure
 from .results import series_writer
 from .stages import StagedRun, append_bodies, append_tables, clump_tables, next_free_clump
 
@@ -331,24 +330,3 @@ class PreparedRun(StagedRun):
 
     def stage_record(self, stage, sim):
         return {"sleeper_z": None if sim.boxes is None else self.sleeper_z(sim)}
-
-
-def plot_preparation(h5_path, png_path, stages):
-    """Bed top, rigid-body height, kinetic energy and unbalanced force over the preparation."""
-    s, fig, ax = series_figure(h5_path, 3, 1, (8, 8))
-    t = s["time"]
-    ax[0].plot(t, s["bed_top"], label="top of the ballast")
-    ax[0].plot(t, np.where(s["sleeper_z"] == 0.0, np.nan, s["sleeper_z"]), label="sleeper centre")
-    ax[0].set_ylabel("height [m]")
-    ax[0].legend()
-    plot_energy(ax[1], t, s["kinetic_energy"])
-    ax[2].semilogy(t, np.maximum(s["unbalanced_force"], 1e-6))
-    ax[2].set_ylabel("unbalanced force ratio [-]")
-    ax[2].set_xlabel("time [s]")
-    for k in range(1, len(stages)):
-        starts = t[s["stage"] == k]
-        if len(starts):
-            for a in ax:
-                a.axvline(starts[0], color="0.7", lw=0.8)
-            ax[0].text(starts[0], ax[0].get_ylim()[1], stages[k], fontsize=8, va="top")
-    save_figure(fig, png_path)

@@ -138,6 +138,16 @@ def read_results(path, required=REQUIRED_SERIES, lenient=False) -> Results | Non
                    cycles=cycles)
 
 
+def read_series(path, required=REQUIRED_SERIES) -> dict:
+    """The ``/series`` of a file with the schema tag but no run attributes (``preparation.h5`` of a
+    staged run): name -> float64 array."""
+    with open_results(path) as f:
+        if _plain(f.attrs.get("schema")) != SCHEMA:
+            raise ResultFileError(path, "not a pdem result (root attribute 'schema' missing)")
+        series, _ = _read_group(path, f, "series", required, SERIES_UNITS)
+    return series
+
+
 def read_box_test(path) -> Results:
     """Read a box-test result: the sleeper series must be present, finite and >= 2 samples."""
     results = read_results(path, required=REQUIRED_SERIES + BOX_SERIES)

@@ -48,16 +48,16 @@ series ``sleeper_load``, ``sleeper_force`` [N, ballast reaction, positive up],
 ``stiffness.png``, ``analysis.txt``) and ``summary.txt`` with the timing table.
 """
 import numpy as np
-from ..format.schema import BOX_TEST_SERIES
 
 from ..config import CLUMP_KEYS, check_keys, grain_shape, run_settings, scene_from_dict
 from ..diagnostics import kinetic_energy
 from ..driver.cycles import CycleRecorder
 from ..driver.preparation import PREPARATION_DEFAULTS, PREPARATION_STAGES, PreparedRun, add_cloud, \
-    check_preparation, plot_preparation
+    check_preparation
 from ..driver.results import series_writer, write_cycles, write_root_attrs
 from ..driver.stages import empty_tables, remove_above, scaled_stiffness
 from ..errors import InputError
+from ..format.schema import BOX_TEST_SERIES
 from ..driver import observables
 from ..driver.observables import box_face_forces
 from ..driver.preparation import remove_where
@@ -504,39 +504,8 @@ class BoxTestRun(PreparedRun):
             self.series.append(load_sample(sim, sim.boxes.center[0], load=self.c["f_min"]))
 
     def finish(self, sim, wall_s):
-        finish(self.out, self.results, sim, self.state, self.c, self.path, self.comm.size, wall_s, self.STAGES)
-
-
-def finish(out, results, sim, state, c, path, ranks, wall_s, stages):
-    """Rank 0 at the end: plots, the analysis of the cycles and summary.txt (with timing): the
-    scene's finishing step calls the analysis entry point `analysis.__main__.main`."""
-    from analysis.__main__ import main as analysis_main
-
-    plot_preparation(out / "preparation.h5", out / "preparation.png", stages)
-    status = analysis_main(["box", str(results), "--out", str(out / "analysis")])
-    lines = [f"box test: {path}", f"ranks: {ranks}", f"wall time: {wall_s:.1f} s", "",
-             "stage     t_end [s]    steps  spheres  unbalanced  bed top [m]  sleeper z [m]  wall [s]"]
-    for r in state["stages"]:
-        z = f"{r['sleeper_z']:.4f}" if r["sleeper_z"] is not None else "-"
-        lines.append(
-            f"{r['stage']:<8} {r['t_end']:9.4f} {r['step_end']:8d} {r['spheres']:8d} {r['unbalanced_force']:11.3g} "
-            f"{r['bed_top']:12.4f} {z:>14} {r['wall_s']:9.1f}"
-        )
-    lines += ["", f"cycles {c['f_min']:g} <-> {c['f_max']:g} N at {c['frequency']:g} Hz",
-              "cycle  settlement start/peak/end [mm]     ballast force min/max [N]"]
-    import h5py
-
-    with h5py.File(results, "r") as f:
-        cyc = {k: f["cycles"][k][...] for k in f["cycles"]} if "cycles" in f else None
-    if cyc is not None:
-        for k in range(len(cyc["cycle"])):
-            lines.append(
-                f"{int(cyc['cycle'][k]):5d}  {1e3 * cyc['settlement_start'][k]:9.3f} "
-                f"{1e3 * cyc['settlement_peak'][k]:9.3f} "
-                f"{1e3 * cyc['settlement_end'][k]:9.3f}   {cyc['force_min'][k]:10.1f} {cyc['force_peak'][k]:10.1f}"
-            )
-    lines += ["", sim.timing_table()]
-    (out / "summary.txt").write_text("\n".join(lines) + "\n")
-    print("\n".join(lines), flush=True)
-    print(f"wrote {results}, {out / 'preparation.h5'}, {out / 'preparation.png'}, {out / 'summary.txt'} and "
-          f"{out / 'analysis'}/ (analysis exit status {status})", flush=True)
+        c = self.c
+        super().finish(sim, wall_s, summary="box_test", title="box test", about=[],
+                       stage_columns=[("sleeper_z", "sleeper z [m]", ".4f")],
+                       preparation={"stages": list(self.STAGES), "body": "sleeper centre"},
+                       notes=[f"cycles {c['f_min']:g} <-> {c['f_max']:g} N at {c['frequency']:g} Hz"])

@@ -49,18 +49,17 @@ unloading stiffness, grading curves and breakage indices) and ``summary.txt`` wi
 from math import cos, pi
 
 import numpy as np
-from ..format.schema import OEDOMETER_SERIES
 
 from ..bonds import touching_pairs
 from ..config import CLUMP_KEYS, check_keys, grain_shape, run_settings, scene_from_dict
 from ..driver import observables
 from ..driver.fragments import FragmentRecorder
-from ..driver.preparation import PREPARATION_DEFAULTS, PREPARATION_STAGES, PreparedRun, check_preparation, \
-    plot_preparation
+from ..driver.preparation import PREPARATION_DEFAULTS, PREPARATION_STAGES, PreparedRun, check_preparation
 from ..driver.results import series_writer, write_root_attrs
 from ..driver.stages import append_bodies, append_tables, check_no_steps, clump_tables, empty_tables, \
     next_free_clump, remove_above
 from ..errors import InputError
+from ..format.schema import OEDOMETER_SERIES
 from ..generators import sphere_radii
 from ..loads import Haversine
 from ..validate import boolean, number
@@ -470,28 +469,7 @@ class OedometerRun(PreparedRun):
         return on_step, lambda sim: sim.time >= t_end, 1, t_end
 
     def finish(self, sim, wall_s):
-        finish(self.out, self.results, self.state, self.c, self.path, self.comm.size, wall_s, sim)
-
-
-def finish(out, results, state, c, path, ranks, wall_s, sim):
-    """Rank 0 at the end: plots, the analysis (`analysis.oedometer`) and summary.txt with timing."""
-    from analysis.__main__ import main as analysis_main
-
-    plot_preparation(out / "preparation.h5", out / "preparation.png", STAGES)
-    status = analysis_main(["oedometer", str(results), "--out", str(out / "analysis"), "--intact-members",
-                            str(intact_members(c))])
-    lines = [f"oedometer: {path}", f"ranks: {ranks}", f"wall time: {wall_s:.1f} s", "",
-             "stage     t_end [s]    steps  spheres  unbalanced  bed top [m]  platen z [m]  wall [s]"]
-    for r in state["stages"]:
-        z = f"{r['sleeper_z']:.4f}" if r["sleeper_z"] is not None else "-"
-        lines.append(f"{r['stage']:<8} {r['t_end']:9.4f} {r['step_end']:8d} {r['spheres']:8d} "
-                     f"{r['unbalanced_force']:11.3g} {r['bed_top']:12.4f} {z:>13} {r['wall_s']:9.1f}")
-    report = out / "analysis" / "oedometer.txt"
-    if report.exists():
-        lines += ["", report.read_text().rstrip()]
-    lines += ["", sim.timing_table()]
-    (out / "summary.txt").write_text("\n".join(lines) + "\n")
-    print("\n".join(lines), flush=True)
-    print(f"wrote {results}, {out / 'preparation.h5'}, {out / 'summary.txt'} and {out / 'analysis'}/ "
-          f"(analysis exit status {status})", flush=True)
-
+        super().finish(sim, wall_s, summary="oedometer", title="oedometer", about=[],
+                       stage_columns=[("sleeper_z", "platen z [m]", ".4f")],
+                       preparation={"stages": list(STAGES), "body": "platen centre"}, notes=[],
+                       intact_members=intact_members(self.c))
