@@ -4,7 +4,7 @@ A small plain scene is run through pdem's driver (the same code as ``pdem run``,
 its results.h5 is read by `pdem.format.read.read_results` (schema name and version checked) and every
 /series column carries the units `pdem.format.schema.RUN_SERIES` gives it. The box test's side of
 the same contract (BOX_TEST_SERIES, CYCLE_COLUMNS) is exercised end to end by
-tests/scenes/test_box_test.py, whose finishing step runs `python -m analysis box`.
+tests/scenes/test_box_test.py, whose post-processing runs `python -m analysis summary`.
 """
 import h5py
 
