@@ -28,7 +28,7 @@ plates of 10 780, 2 700, 244 kg/m^2, i.e. amplification 1.59 for both heavy plat
 (7.97/5 = 1.594, 7.96/5 = 1.592) and 1.78 for the light one (8.88/5 = 1.776).
 
 Units: [s], [m], [m/s], [N], [Pa], [Pa s]; tables and plots show [ms], [mm], [MPa],
-[MPa s]. Imports numpy and this package; matplotlib only when a plot is drawn.
+[MPa s]. Imports numpy, `pdem.format` and this package; matplotlib only when a plot is drawn.
 """
 
 from __future__ import annotations

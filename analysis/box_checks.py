@@ -38,7 +38,7 @@ kept fraction = ``settlement_end / settlement_max`` (the loop's shape: 1 means n
 rebound = ``settlement_max − settlement_end``; unloading stiffness from `analysis.box`.
 Units: [m] and [N/m] in the files and the JSON, [mm] and [MN/m] in the table.
 
-Imports numpy, scipy (Welch's t-test), h5py and matplotlib through this package; never pdem.
+Imports numpy, scipy (Welch's t-test), `pdem.format` and matplotlib through this package.
 """
 
 from __future__ import annotations

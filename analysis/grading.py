@@ -29,8 +29,8 @@ fragment i, d its size and P(x) the mass fraction passing x:
   A + B = B_p,0 and A = B_t, so BBI equals B_r: both are computed (by different routes) and
   reported.
 
-Units: [kg], [m], [kg/m^3]; tables and plots show [mm] and [%]. Imports numpy and this package;
-matplotlib only when a plot is drawn.
+Units: [kg], [m], [kg/m^3]; tables and plots show [mm] and [%]. Imports numpy, `pdem.format`
+and this package; matplotlib only when a plot is drawn.
 """
 
 from __future__ import annotations

@@ -22,7 +22,7 @@ largest overlap over the smaller radius, ``max_overlap_ratio`` [-], where record
   E_k = (k_target / C)^(1/b).
 
 Units: [N], [m], [N/m], [Pa]; tables and plots show [kN], [mm], [kN/mm]. Imports numpy,
-scipy and this package; matplotlib only when a plot is drawn.
+scipy, `pdem.format` and this package; matplotlib only when a plot is drawn.
 """
 
 from __future__ import annotations
@@ -34,7 +34,7 @@ from pathlib import Path
 
 import numpy as np
 
-from pdem.format.read import ResultFileError, open_results, read_results, results_file
+from pdem.format.read import open_results, read_finite
 
 from .figures import figure, save
 from .stiffness import LOADING_WINDOW, loading_stiffness, slope, unloading_stiffness
@@ -59,16 +59,8 @@ class OedometerResult:
 
 
 def read_oedometer(path):
-    """The series of a kind "oedometer" result (finite, >= 3 samples)."""
-    path = results_file(path)
-    res = read_results(path, required=OEDOMETER_SERIES)
-    s = res.series
-    if len(s["time"]) < 3:
-        raise ResultFileError(path, f"series has {len(s['time'])} sample(s), need at least 3 (a finished load)")
-    for name in OEDOMETER_SERIES:
-        if not np.all(np.isfinite(s[name])):
-            raise ResultFileError(path, f"/series/{name} contains non-finite values")
-    return res
+    """The series of a kind "oedometer" result (finite, >= 3 samples: a finished load)."""
+    return read_finite(path, OEDOMETER_SERIES, min_samples=3)
 
 
 def analyse(series, window=LOADING_WINDOW, fraction=UNLOADING_FRACTION) -> OedometerResult:

@@ -46,8 +46,8 @@ tolerance, and E(t) - E(0) over S per member against its fraction of the run).
 
 Expected outcomes: the campaign file's ``[analysis] expect = {case = "stable" | "stopped"}``
 (copied to the manifest) names what each case must do. The log's attempt marker is the one
-`pdem.format.campaign` names (``=== pdem campaign: attempt``). Imports numpy, h5py, `pdem.format` and, for the
-plot, matplotlib; nothing else of pdem.
+`pdem.format.campaign` names (``=== pdem campaign: attempt``). Imports numpy, h5py (to scan every
+HDF5 file of a member), `pdem.format` and, for the plot, matplotlib.
 """
 
 from __future__ import annotations

@@ -20,8 +20,8 @@ the series (for the scene driver and for checks). Definitions:
   (linear interpolation), and the exceedance P(F >= f) = (n - i)/n for the i-th smallest
   (i = 0..n-1), plotted against f/<f> with the exponential exp(-f/<f>) for reference.
 
-Units: [s], [m], [N]; tables and plots show [mm], [kN]. Imports numpy and this package;
-matplotlib only when a plot is drawn.
+Units: [s], [m], [N]; tables and plots show [mm], [kN]. Imports numpy, `pdem.format` and
+this package; matplotlib only when a plot is drawn.
 """
 
 from __future__ import annotations

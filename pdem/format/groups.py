@@ -17,7 +17,8 @@ from dataclasses import dataclass
 import h5py
 import numpy as np
 
-from .read import ResultFileError, Results, _plain, open_results, read_results, results_file
+from .read import (ResultFileError, Results, _plain, checked_units, open_results, read_finite, read_results,
+                   results_file)
 from .schema import (BLAST, BLAST_ATTR_UNITS, BLAST_SERIES, FORCE_UNITS, FORCES,
                      FRAGMENT_REQUIRED, FRAGMENT_UNITS, FRAGMENTS, FRAGMENTS_ATTR_UNITS,
                      PASSAGE_REQUIRED, PASSAGE_UNITS, PASSAGES, TRACK, TRACK_UNITS)
@@ -162,13 +163,7 @@ def read_fragments(path) -> Fragments:
 def read_blast(path) -> tuple[Results, BlastParameters]:
     """Read a kind "blast" result: its series (finite, >= 2 samples) and ``/blast``."""
     path = results_file(path)
-    results = read_results(path, required=BLAST_SERIES)
-    n = len(results.series["time"])
-    if n < 2:
-        raise ResultFileError(path, f"series has {n} sample(s), need at least 2")
-    for name in BLAST_SERIES:
-        if not np.all(np.isfinite(results.series[name])):
-            raise ResultFileError(path, f"/series/{name} contains non-finite values")
+    results = read_finite(path, BLAST_SERIES)
     with open_results(path) as f:
         if BLAST not in f or not isinstance(f[BLAST], h5py.Group):
             raise ResultFileError(path, f"group /{BLAST} missing (kind is {results.kind!r})")
@@ -272,18 +267,8 @@ def _datasets(path, g, where, required, known_units, ndims=None, same_length=Fal
     for name, units in known_units.items():
         if name not in g:
             continue
-        ds, at = g[name], f"{where}/{name}"
-        ndim = (ndims or {}).get(name, 1)
-        if not isinstance(ds, h5py.Dataset) or ds.ndim != ndim:
-            raise ResultFileError(path, f"{at} is not a {ndim}-D dataset")
-        if not np.issubdtype(ds.dtype, np.number):
-            raise ResultFileError(path, f"{at} is not numeric ({ds.dtype})")
-        if "units" not in ds.attrs:
-            raise ResultFileError(path, f"{at} has no 'units' attribute")
-        unit = _plain(ds.attrs["units"])
-        if unit != units:
-            raise ResultFileError(path, f"{at} is in {unit!r}, expected {units!r}")
-        data[name] = ds[()]
+        checked_units(path, g[name], f"{where}/{name}", (ndims or {}).get(name, 1), units)
+        data[name] = g[name][()]
         if same_length:
             if length is not None and len(data[name]) != length[1]:
                 raise ResultFileError(path, f"{where} datasets differ in length "

@@ -148,16 +148,22 @@ def read_series(path, required=REQUIRED_SERIES) -> dict:
     return series
 
 
+def read_finite(path, names, min_samples=2) -> Results:
+    """Read a result whose series ``names`` must be present and finite, with at least
+    ``min_samples`` samples."""
+    results = read_results(path, required=names)
+    n = len(results.series["time"])
+    if n < min_samples:
+        raise ResultFileError(results.path, f"series has {n} sample(s), need at least {min_samples}")
+    for name in names:
+        if not np.all(np.isfinite(results.series[name])):
+            raise ResultFileError(results.path, f"/series/{name} contains non-finite values")
+    return results
+
+
 def read_box_test(path) -> Results:
     """Read a box-test result: the sleeper series must be present, finite and >= 2 samples."""
-    results = read_results(path, required=REQUIRED_SERIES + BOX_SERIES)
-    n = len(results.series["time"])
-    if n < 2:
-        raise ResultFileError(path, f"series has {n} sample(s), need at least 2")
-    for name in BOX_SERIES:
-        if not np.all(np.isfinite(results.series[name])):
-            raise ResultFileError(path, f"/series/{name} contains non-finite values")
-    return results
+    return read_finite(path, BOX_SERIES)
 
 
 def _read_root_attrs(path: Path, f: h5py.File) -> dict:
@@ -198,23 +204,28 @@ def _read_group(path, f, group, required, known_units, kind=None):
         raise ResultFileError(path, f"dataset(s) missing: {names}{hint}")
     data, units = {}, {}
     for name, ds in g.items():
-        where = f"/{group}/{name}"
-        if not isinstance(ds, h5py.Dataset) or ds.ndim != 1:
-            raise ResultFileError(path, f"{where} is not a 1-D dataset")
-        if not np.issubdtype(ds.dtype, np.number):
-            raise ResultFileError(path, f"{where} is not numeric ({ds.dtype})")
-        if "units" not in ds.attrs:
-            raise ResultFileError(path, f"{where} has no 'units' attribute")
-        unit = _plain(ds.attrs["units"])
-        if name in known_units and unit != known_units[name]:
-            raise ResultFileError(path, f"{where} is in {unit!r}, expected {known_units[name]!r}")
+        units[name] = checked_units(path, ds, f"/{group}/{name}", 1, known_units.get(name))
         data[name] = np.asarray(ds[()], dtype=np.float64)
-        units[name] = unit
     lengths = {name: len(v) for name, v in data.items()}
     if len(set(lengths.values())) > 1:
         detail = ", ".join(f"{k}={v}" for k, v in lengths.items())
         raise ResultFileError(path, f"/{group} datasets differ in length ({detail})")
     return data, units
+
+
+def checked_units(path, ds, where, ndim, expected=None) -> str:
+    """The ``units`` attribute of ``ds``, which must be a numeric dataset of rank ``ndim`` (and
+    in the ``expected`` units, if given)."""
+    if not isinstance(ds, h5py.Dataset) or ds.ndim != ndim:
+        raise ResultFileError(path, f"{where} is not a {ndim}-D dataset")
+    if not np.issubdtype(ds.dtype, np.number):
+        raise ResultFileError(path, f"{where} is not numeric ({ds.dtype})")
+    if "units" not in ds.attrs:
+        raise ResultFileError(path, f"{where} has no 'units' attribute")
+    unit = _plain(ds.attrs["units"])
+    if expected is not None and unit != expected:
+        raise ResultFileError(path, f"{where} is in {unit!r}, expected {expected!r}")
+    return unit
 
 
 def _check_time(path, time: np.ndarray) -> None:
