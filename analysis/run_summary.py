@@ -45,7 +45,7 @@ def summarize(run) -> list[Path]:
     run = Path(run)
     info = read_run_info(run)
     if info is None:
-        raise ValueError(f"no {RUN_INFO}: not a complete staged run")
+        raise ValueError(f"no {RUN_INFO}: not a complete run")
     written = []
     prep = info.get("preparation")
     if prep and (run / "preparation.h5").exists():

@@ -1,16 +1,19 @@
 """The run's account for its post-processing: ``RUN/run_info.json`` (format "pdem-run-info", v1).
 
-A staged scene (box test, oedometer, blast, track) writes it on rank 0 at the end of a complete
-run, atomically; ``python -m analysis summary RUN`` (launched by ``pdem run`` after a successful
-run) reads it with the run's other files and writes ``summary.txt`` and ``analysis/``. It holds
-what only the run knows; everything computed from the results is the analysis's:
+A run (a plain scene, `pdem.driver.plain`, or a staged one: box test, oedometer, blast, track)
+writes it on rank 0 at the end of a complete run, atomically; ``python -m analysis summary RUN``
+(launched by ``pdem run`` after a successful run) reads it with the run's other files and writes
+``summary.txt``, the plots and ``analysis/``. It holds what only the run knows; everything
+computed from the results is the analysis's:
 
-``summary``      the post-processing the scene declares: "box_test", "oedometer", "blast", "track"
+``summary``      the post-processing the run declares: "scene" (plain), "box_test", "oedometer",
+                 "blast", "track"
 ``title``        what the run is ("box test", ...); ``scene_file`` (path of the scene file)
 ``ranks``        [-]; ``wall_s`` wall time of the run [s]
 ``about``        lines describing the run, shown under the title (text)
-``stages``       one row per stage: ``stage``, ``t_end`` [s], ``step_end`` [-], ``spheres`` [-],
-                 ``unbalanced_force`` [-], ``bed_top`` [m] and the scene's own entries
+``stages``       one row per stage (none for a plain run): ``stage``, ``t_end`` [s], ``step_end``
+                 [-], ``spheres`` [-], ``unbalanced_force`` [-], ``bed_top`` [m], ``wall_s`` [s]
+                 and the scene's own entries
 ``stage_columns`` [[key, label, format]] of those own entries shown in the stage table
 ``preparation``  {``stages``: names, ``body``: label of the rigid body's height} for the plot of
                  preparation.h5, or null (no preparation in this run)
