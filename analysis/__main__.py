@@ -15,12 +15,11 @@ import argparse
 import sys
 from pathlib import Path
 
-from . import blast, grading, oedometer, track
-from .box import analyse_box
-from .io import ResultFileError, read_box_test
-from .plots import plot_loops, plot_settlement, plot_stiffness
+from pdem.format.read import ResultFileError
+
+from . import blast, grading, oedometer, run_summary, track
 from .stiffness import LOADING_WINDOW, UNLOADING_FRACTION
-from .summary import write_summary_json, write_summary_text
+from .summary import run_box
 
 PROG = "python -m analysis"
 EXIT_BAD_INPUT = 2
@@ -50,7 +49,7 @@ def build_parser() -> argparse.ArgumentParser:
     box.add_argument("--unload-fraction", type=float, default=UNLOADING_FRACTION,
                      metavar="F", help="part of the force drop used for the unloading "
                                        "stiffness (default: %(default)s)")
-    for module in (grading, blast, track, oedometer):
+    for module in (grading, blast, track, oedometer, run_summary):
         module.add_parser(sub)
     from . import box_checks, campaign, error_vs_runtime, stability
 
@@ -59,25 +58,6 @@ def build_parser() -> argparse.ArgumentParser:
     error_vs_runtime.add_parser(sub)
     stability.add_parser(sub)
     return parser
-
-
-def run_box(results_path: Path, out: Path | None, window=LOADING_WINDOW,
-            fraction=UNLOADING_FRACTION) -> list[Path]:
-    """Analyse one box test and write its plots and summaries; return the written files."""
-    results = read_box_test(results_path)
-    result = analyse_box(results, window=window, fraction=fraction)
-    out = out if out is not None else results_path.with_name(results_path.stem + "-analysis")
-    out.mkdir(parents=True, exist_ok=True)
-    s = results.series
-    return [
-        plot_loops(s["sleeper_force"], s["sleeper_settlement"], result.bounds,
-                   out / "loops.png"),
-        plot_settlement(result.table.cycle, result.permanent, out / "settlement.png",
-                        result.log_fit, result.power_fit, peak=result.table.settlement_peak),
-        plot_stiffness(result.table.cycle, result.stiffness, out / "stiffness.png"),
-        write_summary_text(result, out / "summary.txt"),
-        write_summary_json(result, out / "summary.json"),
-    ]
 
 
 def main(argv=None) -> int:

@@ -1,7 +1,7 @@
 """Blast layer: stress on the ceiling, its impulse and the amplification (SPEC 2.5; Szklennik,
 "Prognoza redukcji ciśnienia wybuchu warstwą materiału ziarnistego", Biuletyn WAT 65(3), 2016).
 
-This module owns the analysis of a kind "blast" result (layout in `analysis.schema`), its
+This module owns the analysis of a kind "blast" result (layout in `pdem.format.schema`), its
 figure and tables (``blast.png``, ``blast.txt``, ``blast.json``), and the comparison of several
 runs (seeds x plates: ``blast_compare.txt``, ``.json``, ``.png``). Quantities:
 
@@ -28,7 +28,7 @@ plates of 10 780, 2 700, 244 kg/m^2, i.e. amplification 1.59 for both heavy plat
 (7.97/5 = 1.594, 7.96/5 = 1.592) and 1.78 for the light one (8.88/5 = 1.776).
 
 Units: [s], [m], [m/s], [N], [Pa], [Pa s]; tables and plots show [ms], [mm], [MPa],
-[MPa s]. Imports numpy and this package; matplotlib only when a plot is drawn.
+[MPa s]. Imports numpy, `pdem.format` and this package; matplotlib only when a plot is drawn.
 """
 
 from __future__ import annotations
@@ -40,8 +40,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .groups import BlastParameters, read_blast, results_file
-from .io import Results
+from pdem.format.groups import BlastParameters, read_blast
+from pdem.format.read import Results, results_file
 
 ARRIVAL_FRACTION = 0.05
 PAPER_INPUT_IMPULSE = 5.0e3   # [Pa s] = 5e-3 MPa s
@@ -145,7 +145,7 @@ def analyse_blast(results: Results, params: BlastParameters,
 
     Parameters
     ----------
-    results, params : from `analysis.groups.read_blast`
+    results, params : from `pdem.format.groups.read_blast`
     until : float [s], optional
         Integrate up to this time (default: the whole record).
 
@@ -258,7 +258,7 @@ def plot_blast(result: BlastAnalysis, path) -> Path:
     """sigma_0(t) with the input pressure, plate motion, and the cumulative impulse."""
     from matplotlib.figure import Figure
 
-    from .plots import _save
+    from .figures import save
 
     s, p = result.results.series, result.params
     keep = slice(0, len(result.time))
@@ -298,7 +298,7 @@ def plot_blast(result: BlastAnalysis, path) -> Path:
     ax_i.legend(fontsize="x-small", loc="lower right")
     for ax in (ax_s, ax_p, ax_i):
         ax.grid(True, alpha=0.3)
-    return _save(fig, path)
+    return save(fig, path)
 
 
 # --- several runs: mean and scatter per plate ---
@@ -387,7 +387,7 @@ def plot_compare(groups, path) -> Path:
     """I_s per plate (mean ± std and each run) against the paper's values."""
     from matplotlib.figure import Figure
 
-    from .plots import _save
+    from .figures import save
 
     fig = Figure(figsize=(7.0, 5.0), layout="constrained")
     ax = fig.add_subplot()
@@ -404,7 +404,7 @@ def plot_compare(groups, path) -> Path:
            title="Impulse on the ceiling per plate")
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize="small")
-    return _save(fig, path)
+    return save(fig, path)
 
 
 # --- command line ---
@@ -412,9 +412,13 @@ def plot_compare(groups, path) -> Path:
 def run_blast(runs, out=None, until=None) -> list[Path]:
     """Analyse one or more blast runs; with several, also compare them (needs `out`)."""
     paths = [results_file(r) for r in runs]
+    return write_blast(paths, [analyse_blast(*read_blast(p), until=until) for p in paths], out)
+
+
+def write_blast(paths, analyses, out=None) -> list[Path]:
+    """The files of `run_blast` for the analyses of the results files ``paths``."""
     if len(paths) > 1 and out is None:
         raise ValueError("several runs need --out DIR for the comparison")
-    analyses = [analyse_blast(*read_blast(p), until=until) for p in paths]
     written = []
     names = _run_names(paths)
     for path, name, result in zip(paths, names, analyses):

@@ -12,7 +12,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from .cycles import CycleTable, bounds_from_t_start, cycle_table, detect_bounds
-from .io import Results
+from pdem.format.read import Results
+
 from .settlement import (LogFit, PowerFit, fit_log, fit_power, permanent_settlement,
                          plastic_settlement, resilient_settlement)
 from .stiffness import (LOADING_WINDOW, UNLOADING_FRACTION, CycleStiffness,
@@ -63,7 +64,7 @@ class BoxAnalysis:
 
 def analyse_box(results: Results, window=LOADING_WINDOW,
                 fraction=UNLOADING_FRACTION) -> BoxAnalysis:
-    """Analyse a box test read by `analysis.io.read_box_test`.
+    """Analyse a box test read by `pdem.format.read.read_box_test`.
 
     Raises
     ------

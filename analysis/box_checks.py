@@ -38,7 +38,7 @@ kept fraction = ``settlement_end / settlement_max`` (the loop's shape: 1 means n
 rebound = ``settlement_max − settlement_end``; unloading stiffness from `analysis.box`.
 Units: [m] and [N/m] in the files and the JSON, [mm] and [MN/m] in the table.
 
-Imports numpy, scipy (Welch's t-test), h5py and matplotlib through this package; never pdem.
+Imports numpy, scipy (Welch's t-test), `pdem.format` and matplotlib through this package.
 """
 
 from __future__ import annotations
@@ -51,7 +51,8 @@ from pathlib import Path
 import numpy as np
 from scipy import stats as sps
 
-from .campaign import CampaignError, _finite, _figure, _save, group_members, read_campaign, stats
+from .campaign import CampaignError, _finite, group_members, read_campaign, stats
+from .figures import figure, save
 
 THESIS_MEAN, THESIS_MIN, THESIS_MAX = 63.5e-3, 55.1e-3, 76.0e-3  # study A, settlement at the peak [m]
 THESIS_WITHIN = (26.5e-3, 3.35e-3)  # study B, settlement within cycle 1 and cycle 10 [m]
@@ -317,7 +318,7 @@ def write_table(rows, out, calib, checks, ctx):
 
 
 def plot_calibration(path, ctx):
-    fig, ax = _figure()
+    fig, ax = figure(h=4.5)
     names = list(ctx["peak"])
     for i, c in enumerate(names):
         s = ctx["peak"][c]
@@ -331,13 +332,13 @@ def plot_calibration(path, ctx):
     ax.set(xlabel="settlement at the peak [mm]", title="calibration (A: E_k 2.8e6, radii ±40 %, 0 ↔ 3 kN)")
     ax.grid(True, alpha=0.3)
     ax.legend(fontsize="small")
-    return _save(fig, path)
+    return save(fig, path)
 
 
 def plot_ten_cycles(path, ctx):
     if ctx["within"] is None:
         return None
-    fig, ax = _figure()
+    fig, ax = figure(h=4.5)
     w = ctx["within"] * MM
     k = np.arange(1, w.shape[1] + 1)
     for row in w:
@@ -348,13 +349,13 @@ def plot_ten_cycles(path, ctx):
            title="B: E_k 2.8e7, 0 ↔ 3 kN, 10 cycles")
     ax.grid(True, alpha=0.3)
     ax.legend(fontsize="small")
-    return _save(fig, path)
+    return save(fig, path)
 
 
 def plot_stiffness(path, ctx):
     if len(ctx["sweep"]) < 2:
         return None
-    fig, ax = _figure()
+    fig, ax = figure(h=4.5)
     e = np.array([x for _, x, _ in ctx["sweep"]])
     for j, vals in enumerate(ctx["stiffness"]):
         ax.plot([e[j]] * len(vals), np.array(vals) * MM, ".", color="C0", alpha=0.5)
@@ -365,7 +366,7 @@ def plot_stiffness(path, ctx):
            title="stiffness study, 0 ↔ 3 kN")
     ax.grid(True, alpha=0.3)
     ax.legend(fontsize="small")
-    return _save(fig, path)
+    return save(fig, path)
 
 
 def plot_loops(path, ctx):
@@ -386,7 +387,7 @@ def plot_loops(path, ctx):
                title=f"{title}, seed {seed}, cycle 1")
         ax.grid(True, alpha=0.3)
         ax.legend(fontsize="small")
-    return _save(fig, path)
+    return save(fig, path)
 
 
 def box_checks_report(calibration, checks, out=None, confidence=0.95):

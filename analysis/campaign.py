@@ -19,8 +19,9 @@ last|first|max|min|mean (default last); or ``series.NAME`` with AT last|first|ma
 the same without ``@``: per-cycle curves are drawn against the cycle number, series against the
 time since their first sample. Only members whose run.json says done (exit 0) are used.
 
-This module owns the manifest reader of the analysis side, quantities, curves and grouping.
-Imports numpy, scipy (through `analysis.variability`), h5py and, for the plots, matplotlib; never pdem.
+This module owns the campaign as the analysis sees it (members and their cost), quantities, curves
+and grouping; the manifest and run records are read by `pdem.format.campaign`. Imports numpy,
+scipy (through `analysis.variability`), `pdem.format` and, for the plots, matplotlib.
 """
 
 from __future__ import annotations
@@ -32,10 +33,12 @@ from pathlib import Path
 
 import numpy as np
 
-from .io import ResultFileError, read_box_test, read_results
+from pdem.format.campaign import ManifestError, read_manifest, read_run
+from pdem.format.read import ResultFileError, read_box_test, read_results
+
+from .figures import figure, save
 from .variability import variability
 
-MANIFEST = "campaign.json"
 AT_WORDS = ("last", "first", "max", "min", "mean")
 PER_CYCLE = {"stiffness": ("loading", "unloading", "resilient"),
              "settlement": ("permanent", "plastic", "resilient")}
@@ -100,20 +103,13 @@ def read_campaign(path) -> Campaign:
     """The manifest and members of a campaign directory (CampaignError if it is not one)."""
     path = Path(path)
     try:
-        man = json.loads((path / MANIFEST).read_text())
-    except FileNotFoundError:
-        raise CampaignError(f"{path}: not a campaign directory (no {MANIFEST})") from None
-    except ValueError as err:
-        raise CampaignError(f"{path / MANIFEST}: not valid JSON ({err})") from None
-    if not isinstance(man, dict) or man.get("format") != "pdem-campaign" or man.get("version") != 1:
-        raise CampaignError(f"{path / MANIFEST}: not a pdem campaign manifest of version 1")
+        man = read_manifest(path)
+    except ManifestError as err:
+        raise CampaignError(str(err)) from None
     members = []
     for e in man.get("members", []):
         d = path / e["dir"]
-        try:
-            rec = json.loads((d / "run.json").read_text())
-        except (FileNotFoundError, ValueError):
-            rec = None
+        rec = read_run(d)
         attempts = (rec or {}).get("attempts") or []
         last = attempts[-1] if attempts else None
         done = bool(last and last.get("end") and last.get("exit") == 0)
@@ -375,23 +371,11 @@ def _columns(head, rows):
 
 
 # ---------------------------------------------------------------------------- plots
-def _figure(w=7.0, h=4.5):
-    from matplotlib.figure import Figure
-
-    fig = Figure(figsize=(w, h), layout="constrained")
-    return fig, fig.add_subplot()
-
-
-def _save(fig, path):
-    fig.savefig(path, dpi=120, format="png")
-    return Path(path)
-
-
 def plot_variability(path, q, units, groups, gstats, values, index, confidence, camp):
     """Every member's value (x: its seed, or its index) per group, with the group's mean,
     confidence interval of the mean (band) and min/max (dashed)."""
     f, u = display(units)
-    fig, ax = _figure()
+    fig, ax = figure(h=4.5)
     for gi, (g, s) in enumerate(zip(groups, gstats)):
         color = f"C{gi % 10}"
         xs = [m.params.get(camp.seed_key, j + 1) if camp.seed_key else j + 1 for j, m in enumerate(g.members)]
@@ -414,7 +398,7 @@ def plot_variability(path, q, units, groups, gstats, values, index, confidence, 
            title=f"{camp.name}: {q.text} over {sum(len(g.members) for g in groups)} members")
     ax.grid(True, alpha=0.3)
     ax.legend(fontsize="small")
-    return _save(fig, path)
+    return save(fig, path)
 
 
 def _numeric(v):
@@ -434,7 +418,7 @@ def plot_parameter(path, key, q, units, groups, gstats, confidence):
     for g, s in zip(groups, gstats):
         rest = {k: v for k, v in g.params.items() if k != key}
         lines.setdefault(json.dumps(rest, sort_keys=True), (rest, []))[1].append((g, s))
-    fig, ax = _figure()
+    fig, ax = figure(h=4.5)
     for li, (rest, items) in enumerate(lines.values()):
         pts = sorted(((g.params[key] if numeric else cats.index(str(g.params[key]))), s[q.text]) for g, s in items)
         x = np.array([p[0] for p in pts], dtype=float)
@@ -453,7 +437,7 @@ def plot_parameter(path, key, q, units, groups, gstats, confidence):
     ax.grid(True, alpha=0.3)
     if any(label for label in ax.get_legend_handles_labels()[1]):
         ax.legend(fontsize="small")
-    return _save(fig, path)
+    return save(fig, path)
 
 
 def envelope(curves, per_cycle, n_grid=400):
@@ -479,7 +463,7 @@ def envelope(curves, per_cycle, n_grid=400):
 
 def plot_envelope(path, c, groups, camp):
     """Every member's curve (thin), each group's mean (thick) and envelope min..max (band)."""
-    fig, ax = _figure()
+    fig, ax = figure(h=4.5)
     units = c.units(groups[0].members[0])
     f, u = display(units)
     per_cycle = c.group != "series"
@@ -502,7 +486,7 @@ def plot_envelope(path, c, groups, camp):
            title=f"{camp.name}: {c.group}.{c.name}")
     ax.grid(True, alpha=0.3)
     ax.legend(fontsize="small")
-    return _save(fig, path)
+    return save(fig, path)
 
 
 # ---------------------------------------------------------------------------- command line

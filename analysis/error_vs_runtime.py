@@ -32,8 +32,9 @@ from pathlib import Path
 
 import numpy as np
 
-from .campaign import (CampaignError, Quantity, _columns, _finite, _save, display, group_members,
+from .campaign import (CampaignError, Quantity, _columns, _finite, display, group_members,
                        read_campaign, short_key)
+from .figures import save
 
 
 def _parse_value(text):
@@ -202,7 +203,7 @@ def plot_error_vs_runtime(path, tables, name):
         row[0].legend(fontsize="small")
         f, u = display(t["units"])
         row[0].set_title(f"{name}: {t['quantity']} (reference {t['q_ref'] * f:.4g} {u}; dotted: its cost)")
-    return _save(fig, path)
+    return save(fig, path)
 
 
 def add_parser(sub):

@@ -2,7 +2,7 @@
 thesis 4.5 and figure 4.25).
 
 This module owns the grading analysis of the ``/fragments`` records (layout in
-`analysis.schema`): grading curves, the thesis's figures (mass in fragments of at least 135
+`pdem.format.schema`): grading curves, the thesis's figures (mass in fragments of at least 135
 spheres, mass in single spheres), the breakage indices between a reference record and each later
 one, and their table, JSON and PNG (``grading.txt``, ``grading.json``, ``grading.png``). The
 indices are defined in ``docs/breakage_indices.md``; in short, with f_i the mass fraction of
@@ -29,8 +29,8 @@ fragment i, d its size and P(x) the mass fraction passing x:
   A + B = B_p,0 and A = B_t, so BBI equals B_r: both are computed (by different routes) and
   reported.
 
-Units: [kg], [m], [kg/m^3]; tables and plots show [mm] and [%]. Imports numpy and this package;
-matplotlib only when a plot is drawn.
+Units: [kg], [m], [kg/m^3]; tables and plots show [mm] and [%]. Imports numpy, `pdem.format`
+and this package; matplotlib only when a plot is drawn.
 """
 
 from __future__ import annotations
@@ -42,7 +42,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .groups import FragmentRecord, Fragments, read_fragments, results_file
+from pdem.format.groups import FragmentRecord, Fragments, read_fragments
+from pdem.format.read import results_file
 
 INTACT_MEMBERS = 135     # spheres of an intact Nottingham grain (Lim 2004; thesis 4.1.1)
 SIEVE_RATIO = 2 ** 0.5   # default sieve series: d_min * SIEVE_RATIO**k
@@ -297,7 +298,7 @@ def analyse_grading(fragments: Fragments, reference: str | None = None,
     Parameters
     ----------
     fragments : Fragments
-        From `analysis.groups.read_fragments`.
+        From `pdem.format.groups.read_fragments`.
     reference : str, optional
         Label of the reference record; default the first.
     intact_members : int
@@ -434,7 +435,7 @@ def plot_grading(result: GradingAnalysis, path) -> Path:
     """Grading curves, one per record: % passing by member count and by sieve diameter."""
     from matplotlib.figure import Figure
 
-    from .plots import _save
+    from .figures import save
 
     fig = Figure(figsize=(11.0, 4.8), layout="constrained")
     ax_n, ax_d = fig.subplots(1, 2)
@@ -467,7 +468,7 @@ def plot_grading(result: GradingAnalysis, path) -> Path:
     ax_n.set_title("Grading by number of spheres")
     ax_d.set_title("Grading by sieve diameter")
     ax_n.legend(fontsize="small", loc="upper left")
-    return _save(fig, path)
+    return save(fig, path)
 
 
 def run_grading(run_or_file, out=None, reference=None, intact_members=INTACT_MEMBERS,

@@ -2,7 +2,7 @@
 breakable clumps, and the identification of E_k by equal unloading stiffness (SPEC 2.2; thesis
 ch. 4.3, 4.4, table 4.14; Nottingham test, Lim 2004).
 
-This module owns the analysis of a kind "oedometer" result (layout in `analysis.schema`:
+This module owns the analysis of a kind "oedometer" result (layout in `pdem.format.schema`:
 ``platen_force`` [N, the ballast on the platen, up], ``platen_load`` [N, the program],
 ``platen_displacement`` [m, down, zero when loading starts]) and writes ``oedometer.png``
 (force–displacement with the unloading branch enlarged, as the thesis's figures, and the
@@ -22,7 +22,7 @@ largest overlap over the smaller radius, ``max_overlap_ratio`` [-], where record
   E_k = (k_target / C)^(1/b).
 
 Units: [N], [m], [N/m], [Pa]; tables and plots show [kN], [mm], [kN/mm]. Imports numpy,
-scipy and this package; matplotlib only when a plot is drawn.
+scipy, `pdem.format` and this package; matplotlib only when a plot is drawn.
 """
 
 from __future__ import annotations
@@ -34,8 +34,9 @@ from pathlib import Path
 
 import numpy as np
 
-from .groups import results_file
-from .io import ResultFileError, read_results
+from pdem.format.read import open_results, read_finite
+
+from .figures import figure, save
 from .stiffness import LOADING_WINDOW, loading_stiffness, slope, unloading_stiffness
 
 OEDOMETER_SERIES = ("platen_load", "platen_force", "platen_displacement")
@@ -58,16 +59,8 @@ class OedometerResult:
 
 
 def read_oedometer(path):
-    """The series of a kind "oedometer" result (finite, >= 3 samples)."""
-    path = results_file(path)
-    res = read_results(path, required=OEDOMETER_SERIES)
-    s = res.series
-    if len(s["time"]) < 3:
-        raise ResultFileError(path, f"series has {len(s['time'])} sample(s), need at least 3 (a finished load)")
-    for name in OEDOMETER_SERIES:
-        if not np.all(np.isfinite(s[name])):
-            raise ResultFileError(path, f"/series/{name} contains non-finite values")
-    return res
+    """The series of a kind "oedometer" result (finite, >= 3 samples: a finished load)."""
+    return read_finite(path, OEDOMETER_SERIES, min_samples=3)
 
 
 def analyse(series, window=LOADING_WINDOW, fraction=UNLOADING_FRACTION) -> OedometerResult:
@@ -126,14 +119,9 @@ def result_lines(r: OedometerResult) -> list[str]:
 
 def plot_oedometer(series, r: OedometerResult, path) -> Path:
     """Force–displacement, the unloading branch enlarged in an inset."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
     f, u, load = (np.asarray(series[k]) for k in ("platen_force", "platen_displacement", "platen_load"))
     peak = int(np.argmax(load))
-    fig, ax = plt.subplots(figsize=(7, 5))
+    fig, ax = figure(7, 5)
     ax.plot(u * MM, f * KN, label="ballast on the platen")
     ax.plot(u * MM, load * KN, lw=0.8, ls="--", label="applied load")
     ax.set_xlabel("platen displacement u [mm]")
@@ -153,11 +141,7 @@ def plot_oedometer(series, r: OedometerResult, path) -> Path:
     ins.plot((u[peak:] - u[peak]) * MM, f[peak:] * KN)
     ins.set_title("unloading (u - u_peak [mm], F [kN])", fontsize="x-small")
     ins.tick_params(labelsize="x-small")
-    fig.tight_layout()
-    path = Path(path)
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
-    return path
+    return save(fig, path)
 
 
 def run_oedometer(run_or_file, out=None, intact_members=135) -> list[Path]:
@@ -170,9 +154,7 @@ def run_oedometer(run_or_file, out=None, intact_members=135) -> list[Path]:
     out.mkdir(parents=True, exist_ok=True)
     lines = result_lines(r)
     written = [plot_oedometer(res.series, r, out / "oedometer.png")]
-    import h5py
-
-    with h5py.File(res.path, "r") as fh:
+    with open_results(res.path) as fh:
         has_fragments = "fragments" in fh and len(fh["fragments"]) > 0
     if has_fragments:
         written += grading.run_grading(res.path, out, intact_members=intact_members)

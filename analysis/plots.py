@@ -1,9 +1,7 @@
 """PNG plots of a cyclic test: force-settlement loops, settlement per cycle, stiffness per cycle.
 
-This module owns the figures. Inputs are SI arrays ([m], [N], [N/m]); the axes show engineering
-units ([mm], [kN], [MN/m]). It uses matplotlib's object API with the Agg renderer (no pyplot,
-no global backend switch) and imports matplotlib only when a plot is drawn, so
-``import analysis`` stays light.
+This module owns the figures of the cyclic test (made and written by `analysis.figures`). Inputs
+are SI arrays ([m], [N], [N/m]); the axes show engineering units ([mm], [kN], [MN/m]).
 """
 
 from __future__ import annotations
@@ -11,6 +9,8 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+
+from .figures import figure, log_cycle_axis, save
 
 MM, KN, MN_PER_M = 1e3, 1e-3, 1e-6  # SI -> plotted units
 LOG_X_ABOVE = 20  # use a logarithmic cycle axis beyond this many cycles
@@ -36,7 +36,7 @@ def plot_loops(force, settlement, bounds, path) -> Path:
     slices = cycle_slices(bounds)
     u, f = np.asarray(settlement) * MM, np.asarray(force) * KN
     lines = [np.column_stack((u[s], f[s])) for s in slices]
-    fig, ax = _figure()
+    fig, ax = figure()
     lc = LineCollection(lines, cmap="viridis", linewidths=1.0)
     lc.set_array(np.arange(1, len(lines) + 1))
     ax.add_collection(lc)
@@ -45,7 +45,7 @@ def plot_loops(force, settlement, bounds, path) -> Path:
     ax.set(xlabel="sleeper settlement [mm]", ylabel="ballast force on sleeper [kN]",
            title=f"Force-settlement loops ({len(lines)} cycles)")
     ax.grid(True, alpha=0.3)
-    return _save(fig, path)
+    return save(fig, path)
 
 
 def plot_settlement(cycle, permanent, path, log_fit=None, power_fit=None, peak=None) -> Path:
@@ -62,7 +62,7 @@ def plot_settlement(cycle, permanent, path, log_fit=None, power_fit=None, peak=N
         Settlement at peak load, drawn for comparison.
     """
     cycle = np.asarray(cycle, dtype=np.float64)
-    fig, ax = _figure()
+    fig, ax = figure()
     ax.plot(cycle, np.asarray(permanent) * MM, "o", color="C0", ms=4,
             label="permanent (end of cycle)")
     if peak is not None:
@@ -76,11 +76,11 @@ def plot_settlement(cycle, permanent, path, log_fit=None, power_fit=None, peak=N
         ax.plot(n, power_fit(n) * MM, "--", color="C2",
                 label=f"S1 N^b: S1={power_fit.s1 * MM:.4g} mm, b={power_fit.b:.4g}, "
                       f"R²={power_fit.r2:.4f}")
-    _log_cycle_axis(ax)
+    log_cycle_axis(ax)
     ax.set(xlabel="cycle N", ylabel="sleeper settlement [mm]", title="Settlement per cycle")
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize="small")
-    return _save(fig, path)
+    return save(fig, path)
 
 
 def plot_stiffness(cycle, stiffness, path) -> Path:
@@ -93,36 +93,15 @@ def plot_stiffness(cycle, stiffness, path) -> Path:
     path : str or Path
     """
     cycle = np.asarray(cycle, dtype=np.float64)
-    fig, ax = _figure()
+    fig, ax = figure()
     for name, marker in (("resilient", "o-"), ("loading", "s--"), ("unloading", "^:")):
         k = np.asarray(getattr(stiffness, name))
         if np.any(np.isfinite(k)):
             ax.plot(cycle, k * MN_PER_M, marker, ms=4, label=name)
     if len(cycle) > LOG_X_ABOVE:
-        _log_cycle_axis(ax)
+        log_cycle_axis(ax)
     ax.set(xlabel="cycle N", ylabel="stiffness [MN/m]", title="Stiffness per cycle")
     ax.grid(True, which="both", alpha=0.3)
     if ax.get_legend_handles_labels()[0]:
         ax.legend(fontsize="small")
-    return _save(fig, path)
-
-
-def _figure():
-    from matplotlib.figure import Figure
-
-    fig = Figure(figsize=(7.0, 5.0), layout="constrained")
-    return fig, fig.add_subplot()
-
-
-def _log_cycle_axis(ax):
-    """Logarithmic cycle axis labelled 1, 10, 100 (not 10^0, 10^1)."""
-    from matplotlib.ticker import StrMethodFormatter
-
-    ax.set_xscale("log")
-    ax.xaxis.set_major_formatter(StrMethodFormatter("{x:g}"))
-
-
-def _save(fig, path) -> Path:
-    path = Path(path)
-    fig.savefig(path, dpi=120, format="png")
-    return path
+    return save(fig, path)

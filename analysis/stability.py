@@ -46,8 +46,8 @@ tolerance, and E(t) - E(0) over S per member against its fraction of the run).
 
 Expected outcomes: the campaign file's ``[analysis] expect = {case = "stable" | "stopped"}``
 (copied to the manifest) names what each case must do. The log's attempt marker is the one
-`pdem.campaign.record` writes (``=== pdem campaign: attempt``). Imports numpy, h5py and, for the
-plot, matplotlib; never pdem.
+`pdem.format.campaign` names (``=== pdem campaign: attempt``). Imports numpy, h5py (to scan every
+HDF5 file of a member), `pdem.format` and, for the plot, matplotlib.
 """
 
 from __future__ import annotations
@@ -61,12 +61,13 @@ from pathlib import Path
 import h5py
 import numpy as np
 
+from pdem.format.campaign import ATTEMPT_MARK, LOG, read_run
+from pdem.format.read import read_results
+
 from .campaign import CampaignError, read_campaign
+from .figures import save
 
 TOLERANCE = 0.10          # largest rise of the mechanical energy over the largest kinetic+elastic [-]
-ATTEMPT_MARK = "=== pdem campaign: attempt"
-LOG = "pdem.log"
-RUN = "run.json"
 VERDICTS = ("stable", "stopped", "FAILED", "incomplete", "pending")
 EXPECTABLE = ("stable", "stopped")
 TEXT_SUFFIXES = (".txt", ".log", ".xmf")
@@ -248,15 +249,6 @@ def _pct(x):
 
 
 # ---------------------------------------------------------------------------- one member
-def _attempts(d):
-    try:
-        rec = json.loads((Path(d) / RUN).read_text())
-    except (FileNotFoundError, ValueError):
-        return []
-    a = rec.get("attempts") if isinstance(rec, dict) else None
-    return a if isinstance(a, list) else []
-
-
 def last_message(d):
     """The last ``pdem: unstable``/``pdem: error`` line of the member's last attempt ('' if none)."""
     try:
@@ -269,17 +261,9 @@ def last_message(d):
 
 
 def _read_series(d):
-    """(series dict, root attrs) of d/results.h5 (empty if missing or unreadable)."""
-    p = Path(d) / "results.h5"
-    if not p.is_file():
-        return {}, {}
-    try:
-        with h5py.File(p, "r") as f:
-            attrs = {k: (v.decode() if isinstance(v, bytes) else v) for k, v in f.attrs.items()}
-            series = {k: f["series"][k][()] for k in f["series"]} if "series" in f else {}
-    except OSError:
-        return {}, {}
-    return series, attrs
+    """(series dict, root attrs) of d/results.h5 (empty if missing or not a valid result)."""
+    r = read_results(d, lenient=True)
+    return ({}, {}) if r is None else (r.series, r.attrs)
 
 
 def _facts(series):
@@ -298,7 +282,7 @@ def judge_member(campaign, member, tolerance=TOLERANCE, expected=None):
     """The `Verdict` of one member (`analysis.campaign.Member`) of campaign named ``campaign``."""
     d = member.dir
     case = str(member.params.get("case", ""))
-    attempts = _attempts(d)
+    attempts = (read_run(d) or {}).get("attempts", [])
     v = Verdict(campaign=campaign, member=member.name, case=case, exit=None, verdict="pending",
                 line="pending: never run", expected=expected, dir=Path(d))
     if not attempts:
@@ -515,8 +499,7 @@ def plot_stability(path, verdicts, tolerance):
     if drawn:
         ax2.legend(fontsize=7, ncol=2)
     fig.suptitle(summary_line(verdicts), fontsize=10)
-    fig.savefig(path, dpi=110)
-    return Path(path)
+    return save(fig, path, dpi=110)
 
 
 def add_parser(sub):

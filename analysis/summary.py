@@ -1,4 +1,5 @@
-"""Text and JSON summaries of a box-test analysis.
+"""Text and JSON summaries of a box-test analysis, and `run_box` (the ``box`` command: read,
+analyse, plot, summarise).
 
 This module owns the two summary files: ``summary.txt`` (a per-cycle table in [mm], [kN],
 [MN/m] for reading, plus the fit parameters) and ``summary.json`` (the same in SI units, [s],
@@ -13,7 +14,11 @@ from pathlib import Path
 
 import numpy as np
 
-from .box import BoxAnalysis
+from pdem.format.read import read_box_test
+
+from .box import BoxAnalysis, analyse_box
+from .plots import plot_loops, plot_settlement, plot_stiffness
+from .stiffness import LOADING_WINDOW, UNLOADING_FRACTION
 
 # name, header, units shown, scale SI -> shown, format
 COLUMNS = (
@@ -120,3 +125,22 @@ def _fit_fields(fit) -> dict:
 def _json_float(x):
     x = float(x)
     return x if math.isfinite(x) else None
+
+
+def run_box(results_path: Path, out: Path | None, window=LOADING_WINDOW,
+            fraction=UNLOADING_FRACTION) -> list[Path]:
+    """Analyse one box test and write its plots and summaries; return the written files."""
+    results = read_box_test(results_path)
+    result = analyse_box(results, window=window, fraction=fraction)
+    out = out if out is not None else results_path.with_name(results_path.stem + "-analysis")
+    out.mkdir(parents=True, exist_ok=True)
+    s = results.series
+    return [
+        plot_loops(s["sleeper_force"], s["sleeper_settlement"], result.bounds,
+                   out / "loops.png"),
+        plot_settlement(result.table.cycle, result.permanent, out / "settlement.png",
+                        result.log_fit, result.power_fit, peak=result.table.settlement_peak),
+        plot_stiffness(result.table.cycle, result.stiffness, out / "stiffness.png"),
+        write_summary_text(result, out / "summary.txt"),
+        write_summary_json(result, out / "summary.json"),
+    ]

@@ -2,7 +2,7 @@
 contact force distributions (SPEC 2.4; thesis ch. 6 and the multi-sleeper track it left for
 future work).
 
-This module owns the analysis of a kind "track" result (layout in `analysis.schema`: per-sleeper
+This module owns the analysis of a kind "track" result (layout in `pdem.format.schema`: per-sleeper
 series ``/track``, the per-passage table ``/passages``, force records ``/forces/<label>``), its
 figures (``track_settlement.png``: permanent settlement along the track per passage and a
 passage x sleeper map; ``track_voids.png``; ``track_forces.png``: histograms and exceedance
@@ -20,8 +20,8 @@ the series (for the scene driver and for checks). Definitions:
   (linear interpolation), and the exceedance P(F >= f) = (n - i)/n for the i-th smallest
   (i = 0..n-1), plotted against f/<f> with the exponential exp(-f/<f>) for reference.
 
-Units: [s], [m], [N]; tables and plots show [mm], [kN]. Imports numpy and this package;
-matplotlib only when a plot is drawn.
+Units: [s], [m], [N]; tables and plots show [mm], [kN]. Imports numpy, `pdem.format` and
+this package; matplotlib only when a plot is drawn.
 """
 
 from __future__ import annotations
@@ -33,7 +33,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .groups import ForceRecord, TrackRecord, read_track, results_file
+from pdem.format.groups import ForceRecord, TrackRecord, read_track
+from pdem.format.read import results_file
 
 HANGING_GAP = 1e-4   # [m] a gap above this (0.1 mm) counts as a hanging sleeper
 MAX_LINES = 12       # passages drawn as lines (evenly chosen, always the first and last)
@@ -263,7 +264,7 @@ def plot_settlement_map(result: TrackAnalysis, path) -> Path:
     from matplotlib.figure import Figure
     from matplotlib.ticker import MaxNLocator
 
-    from .plots import _save
+    from .figures import save
 
     rec = result.record
     perm = rec.passages["settlement_permanent"] * MM
@@ -289,14 +290,14 @@ def plot_settlement_map(result: TrackAnalysis, path) -> Path:
     ax_map.xaxis.set_major_locator(MaxNLocator(integer=True))
     ax_map.yaxis.set_major_locator(MaxNLocator(integer=True))
     ax_map.set(xlabel="sleeper [-]", ylabel="passage [-]", title="Settlement: passage × sleeper")
-    return _save(fig, path)
+    return save(fig, path)
 
 
 def plot_voids(result: TrackAnalysis, path) -> Path:
     """Gap under each sleeper per passage, and the mean, largest gap and hanging sleepers."""
     from matplotlib.figure import Figure
 
-    from .plots import _save
+    from .figures import save
 
     rec = result.record
     gap = rec.passages["gap"] * MM
@@ -323,14 +324,14 @@ def plot_voids(result: TrackAnalysis, path) -> Path:
     h1, l1 = ax_p.get_legend_handles_labels()
     h2, l2 = ax_h.get_legend_handles_labels()
     ax_p.legend(h1 + h2, l1 + l2, fontsize="x-small")
-    return _save(fig, path)
+    return save(fig, path)
 
 
 def plot_forces(result: TrackAnalysis, path) -> Path:
     """Histogram of f/<f> and exceedance P(F >= f), one curve per instant, per contact kind."""
     from matplotlib.figure import Figure
 
-    from .plots import _save
+    from .figures import save
 
     kinds = [k for k in ("sleeper_ballast", "ballast_ballast")
              if any(k in v for v in result.forces.values())]
@@ -367,14 +368,14 @@ def plot_forces(result: TrackAnalysis, path) -> Path:
         for ax in row:
             ax.grid(True, which="both", alpha=0.3)
         ax_h.legend(fontsize="x-small")
-    return _save(fig, path)
+    return save(fig, path)
 
 
 def plot_sleepers(result: TrackAnalysis, path) -> Path:
     """Settlement and ballast force of each sleeper in time, passages shaded."""
     from matplotlib.figure import Figure
 
-    from .plots import _save
+    from .figures import save
 
     rec = result.record
     t = rec.results.series["time"]
@@ -395,7 +396,7 @@ def plot_sleepers(result: TrackAnalysis, path) -> Path:
         ax.grid(True, alpha=0.3)
     if rec.n_sleepers <= 12:
         ax_s.legend(fontsize="x-small", ncol=2)
-    return _save(fig, path)
+    return save(fig, path)
 
 
 def run_track(run_or_file, out=None, hanging_gap=HANGING_GAP) -> list[Path]:

@@ -26,7 +26,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
-from analysis.io import ResultFileError, read_box_test  # noqa: E402
+from pdem.format.read import ResultFileError, read_box_test  # noqa: E402
 from analysis.variability import variability  # noqa: E402
 
 THESIS_A = (26.5, 3.35)  # mm, settlement within cycle 1 and cycle 10

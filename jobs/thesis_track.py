@@ -10,6 +10,7 @@ the settlement of the half-sleeper at the peak and at the end of each load cycle
 base height after the preparation, and the load-settlement curves with the thesis's value.
 """
 import argparse
+import json
 import os
 import subprocess
 import sys
@@ -22,7 +23,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "jobs"))
-from analysis.groups import read_track  # noqa: E402
+from pdem.format.groups import read_track  # noqa: E402
 from thesis_box import merge, to_toml  # noqa: E402
 
 THESIS_MM = 16.0  # thesis fig. 6.6: "about 16 mm" at the peak of 0 -> 2 kN -> 0
@@ -84,8 +85,8 @@ def report(out, dest):
         load = rec.results.series["applied_load"] / 1e3
         t = rec.results.series["time"]
         n = int(rec.results.series["step"].size)
-        spheres = [line for line in (d / "summary.txt").read_text().splitlines() if line.startswith("ranks:")]
-        bodies = spheres[0].split("bodies: ")[1].split(",")[0] if spheres else "?"
+        scaling = d / "scaling.json"
+        bodies = json.loads(scaling.read_text())["bodies"] if scaling.exists() else "?"
         bed = tomllib.loads((d / "scene.toml").read_text())["track"]["bed_depth"]
         seating = 1e3 * (bed - base_height(d))
         md.append(f"| {name} | {bodies} | {1e3 * base_height(d):.1f} | {seating:.1f} | "

@@ -31,7 +31,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "jobs"))
-from analysis.groups import read_track  # noqa: E402
+from pdem.format.groups import read_track  # noqa: E402
 from analysis.variability import variability  # noqa: E402
 from thesis_box import merge, to_toml  # noqa: E402
 

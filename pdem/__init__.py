@@ -2,11 +2,26 @@
 
 Public names: `Scene` (declare and build a simulation), `Simulation`, `Material`, `InputError`,
 `InstabilityError`. See README.md and docs/.
-"""
-from .errors import InputError, InstabilityError
-from .materials import Material
-from .scene import Scene
-from .simulation import Simulation
-from .version import __version__
 
-__all__ = ["Scene", "Simulation", "Material", "InputError", "InstabilityError", "__version__"]
+The names are loaded on first use (PEP 562), so that ``import pdem.format`` (the file format,
+numpy and h5py only) does not load the engine, numba or mpi4py.
+"""
+from importlib import import_module
+
+# public name -> module (relative to this package) that defines it
+_PUBLIC = {"Scene": ".scene", "Simulation": ".simulation", "Material": ".materials", "InputError": ".errors",
+           "InstabilityError": ".errors", "__version__": ".version"}
+
+__all__ = list(_PUBLIC)
+
+
+def __getattr__(name):
+    if name not in _PUBLIC:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = getattr(import_module(_PUBLIC[name], __name__), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__():
+    return sorted(set(globals()) | set(_PUBLIC))

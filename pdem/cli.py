@@ -8,6 +8,11 @@ failure on any rank ends the whole job with one line, printed once, and an exit 
 output directory, a checkpoint or results file that cannot be continued from), 3 stopped by
 SIGTERM/SIGUSR1 after writing a checkpoint (`pdem.io.signals`), 4 unstable or runaway, 5 a
 write failed (disk full) or memory ran out.
+
+After a successful run, rank 0 launches the post-processing the run declared in its files (a
+staged scene's run_info.json, `pdem.format.run`): ``python -m analysis summary OUT`` (in this
+process), which writes summary.txt, preparation.png and analysis/. Its exit status is printed;
+the run's stays.
 """
 import argparse
 import os
@@ -70,6 +75,7 @@ def main(argv=None):
         from pathlib import Path
 
         from .driver.failures import run_guarded
+        from .format.run import clear_run_info
         from .parallel.comm import configure_threads, get_comm
 
         comm = get_comm()
@@ -77,10 +83,27 @@ def main(argv=None):
 
         def run():
             configure_threads(comm)
+            if comm.rank == 0:  # only a run that completes leaves its account
+                clear_run_info(out)
             return run_file(args.scene, out, steps=args.steps, fresh=args.fresh, comm=comm)
 
-        return run_guarded(comm, run)
+        status = run_guarded(comm, run)
+        if status == 0 and comm.rank == 0:
+            post_process(out)
+        return status
     return 0
+
+
+def post_process(out):
+    """The post-processing the run in ``out`` declared (none for a plain scene or a stopped run)."""
+    from .format.run import read_run_info
+
+    if read_run_info(out) is None:
+        return
+    from analysis.__main__ import main as analysis_main
+
+    status = analysis_main(["summary", str(out)])
+    print(f"post-processing: python -m analysis summary {out}: exit status {status}", flush=True)
 
 
 if __name__ == "__main__":

@@ -1,15 +1,8 @@
 """The campaign directory: its manifest and one directory per member, written idempotently.
 
-Owns the file layout (names below) and `write_campaign`, which expands a parsed campaign into
-its directory. Layout of OUT (the campaign's ``out``)::
-
-    OUT/campaign.json          manifest: format "pdem-campaign" v1, name, base, seed_key, varied
-                               keys, [analysis] defaults, members (name, dir, params, ranks, threads)
-    OUT/<member>/scene.toml    the member's resolved scene (base + overrides), never rewritten
-    OUT/<member>/member.json   campaign, name, params, overrides
-    OUT/<member>/run.json      written by the runner: one entry per attempt (`pdem.campaign.record`)
-    OUT/<member>/pdem.log      stdout and stderr of every attempt, appended
-    OUT/<member>/...           what ``pdem run`` writes there (results.h5, checkpoints/, ...)
+Owns `write_campaign`, which expands a parsed campaign into its directory in the layout of
+`pdem.format.campaign` (manifest, member files; a member's directory also holds what ``pdem run``
+writes there: results.h5, checkpoints/, ...). A member's scene.toml is never rewritten.
 
 Expanding again changes nothing (files whose content would not change are not rewritten) and
 adds members that are new in the campaign file. It refuses, before writing anything, a
@@ -21,17 +14,10 @@ import os
 from pathlib import Path
 
 from ..errors import InputError
+from ..format import campaign as fmt
+from ..format.campaign import MANIFEST, MEMBER, SCENE
 from .spec import jsonable
 from .tomlw import dumps
-
-MANIFEST = "campaign.json"
-SCENE = "scene.toml"
-MEMBER = "member.json"
-RUN = "run.json"
-LOG = "pdem.log"
-LOCK = ".lock"
-FORMAT = "pdem-campaign"
-VERSION = 1
 
 
 def write_text_if_changed(path, text):
@@ -62,27 +48,18 @@ def member_json(camp, m):
 
 
 def manifest(camp):
-    return {"format": FORMAT, "version": VERSION, "name": camp.name, "campaign_file": str(camp.path),
-            "base": str(camp.base), "seed_key": camp.seed_key, "varied": camp.varied, "cases": camp.has_cases,
-            "analysis": jsonable(camp.analysis),
-            "members": [{"name": m.name, "dir": m.name, "params": jsonable(m.params), "ranks": m.ranks,
-                         "threads": m.threads} for m in camp.members]}
+    return fmt.manifest(camp.name, camp.path, camp.base, camp.seed_key, camp.varied, camp.has_cases,
+                        jsonable(camp.analysis),
+                        [{"name": m.name, "dir": m.name, "params": jsonable(m.params), "ranks": m.ranks,
+                          "threads": m.threads} for m in camp.members])
 
 
 def read_manifest(out):
     """The manifest of the campaign directory ``out`` (InputError if it has none or a bad one)."""
-    p = Path(out) / MANIFEST
     try:
-        man = json.loads(p.read_text())
-    except FileNotFoundError:
-        raise InputError(f"{out}: not a campaign directory (no {MANIFEST}); expand the campaign first") from None
-    except ValueError as exc:
-        raise InputError(f"{p}: not valid JSON ({exc})") from None
-    if not isinstance(man, dict) or man.get("format") != FORMAT:
-        raise InputError(f"{p}: not a pdem campaign manifest (format is not {FORMAT!r})")
-    if man.get("version") != VERSION:
-        raise InputError(f"{p}: manifest version {man.get('version')!r} not supported (this pdem reads {VERSION})")
-    return man
+        return fmt.read_manifest(out)
+    except fmt.ManifestError as exc:
+        raise InputError(str(exc)) from None
 
 
 def write_campaign(camp, log=print):

@@ -25,8 +25,8 @@ import sys
 import time
 from pathlib import Path
 
-from .layout import LOG, SCENE
-from .record import EXIT_STOPPED, end_attempt, read_run, start_attempt, take_lock
+from ..format.campaign import LOG, SCENE, read_run
+from .record import EXIT_STOPPED, end_attempt, start_attempt, take_lock
 
 RESEND_S = 2.0
 STOP_ACK = "stop signal received"  # what pdem logs when it has seen the stop signal

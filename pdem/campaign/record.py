@@ -1,10 +1,10 @@
 """What happened to a member: its run record (run.json), its lock and its state.
 
-Owns the run record and the states of `STATES`. ``run.json`` holds one entry per attempt
-(``start``, ``end`` (ISO times, ``end`` null while it runs), ``wall_s``, ``exit``, ``ranks``,
-``threads``, ``core_s`` = wall × ranks × threads, ``cpu_s`` = the CPU time its processes used,
-``host``, ``launcher``, ``slurm_job``) and the totals over attempts (``wall_s``, ``core_s``,
-``cpu_s``, the last ``exit``), which the error-vs-runtime
+Owns the writing of the run record (read by `pdem.format.campaign.read_run`) and the states of
+`STATES`. ``run.json`` holds one entry per attempt (``start``, ``end`` (ISO times, ``end`` null
+while it runs), ``wall_s``, ``exit``, ``ranks``, ``threads``, ``core_s`` = wall × ranks × threads,
+``cpu_s`` = the CPU time its processes used, ``host``, ``launcher``, ``slurm_job``) and the totals
+over attempts (``wall_s``, ``core_s``, ``cpu_s``, the last ``exit``), which the error-vs-runtime
 report reads as the member's cost. A member being run holds an exclusive `flock` on
 ``<member>/.lock`` (inherited by its processes), so any process can tell that it is running.
 
@@ -15,29 +15,19 @@ pending (never started).
 """
 import datetime as _dt
 import fcntl
-import json
 import os
 import socket
 from pathlib import Path
 
-from .layout import LOCK, LOG, RUN, json_text, write_text_if_changed
+from ..format.campaign import ATTEMPT_MARK, LOCK, LOG, RUN, read_run
+from .layout import json_text, write_text_if_changed
 
 STATES = ("done", "running", "stopped", "failed", "pending")
 EXIT_DONE, EXIT_STOPPED = 0, 3
-ATTEMPT_MARK = "=== pdem campaign: attempt"
 
 
 def now():
     return _dt.datetime.now().astimezone().isoformat(timespec="seconds")
-
-
-def read_run(d):
-    """The run record of member directory ``d`` (None if it has none or it is unreadable)."""
-    try:
-        rec = json.loads((Path(d) / RUN).read_text())
-    except (FileNotFoundError, ValueError):
-        return None
-    return rec if isinstance(rec, dict) and isinstance(rec.get("attempts"), list) else None
 
 
 def _totals(rec):

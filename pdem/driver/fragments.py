@@ -1,4 +1,4 @@
-"""Fragment records in the results file: ``/fragments/<label>`` (`analysis.schema.write_fragments`).
+"""Fragment records in the results file: ``/fragments/<label>`` (`pdem.format.schema.write_fragments`).
 
 `FragmentRecorder` writes the fragments of the running simulation (`pdem.fragments.fragments`:
 connected components over intact bonds and rigid clumps) on a schedule (every ``every`` steps,
@@ -12,7 +12,7 @@ has: the density of the clump members' material (it must be one) and their small
 """
 import numpy as np
 
-from analysis.schema import fragment_label, write_fragments
+from ..format.schema import fragment_label, write_fragments
 
 from ..errors import InputError
 from ..fragments import fragments

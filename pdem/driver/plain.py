@@ -1,27 +1,29 @@
 """A plain run of a scene file: the scene as declared, for run.steps steps, with output.
 
 `run_scene_file(path, out_dir)` runs on every rank. It writes to `out_dir`: ``results.h5``
-(`analysis.schema`, kind from run.kind: /series of time, energies (kinetic, elastic,
+(`pdem.format.schema`, kind from run.kind: /series of time, energies (kinetic, elastic,
 potential, their total), contacts, the largest overlap, unbalanced force, floor force; root
 attribute ``external_work``; /fragments every run.fragments_every steps if set,
-`pdem.driver.fragments`), ``snapshots.h5``/``.xmf`` if the scene asks, checkpoints in ``checkpoints/``
-(`pdem.driver.runloop.RunLoop`; always one at the end), ``results.png`` and ``summary.txt``
-with the timing table. Started again on the same directory, a run resumes from the newest
-valid checkpoint and appends to its results; ``fresh`` removes the old checkpoints first.
+`pdem.driver.fragments`), ``snapshots.h5``/``.xmf`` if the scene asks, checkpoints in
+``checkpoints/`` (`pdem.driver.runloop.RunLoop`; always one at the end) and, when it ends without
+a stop, its account ``run_info.json`` (`pdem.format.run`: kind "scene", the final state and the
+timing table), from which ``python -m analysis summary`` writes ``results.png`` and
+``summary.txt``. Started again on the same directory, a run resumes from the newest valid
+checkpoint and appends to its results; ``fresh`` removes the old checkpoints first.
 """
 import time as _time
 from pathlib import Path
 
-from analysis.schema import RUN_SERIES, fragment_label
+from ..format.schema import RUN_SERIES, fragment_label
 
 from ..version import __version__
 from ..config import run_settings, scene_from_dict
 from ..diagnostics import check_finite
+from ..format.run import write_run_info
 from ..io.checkpoint import CheckpointError, read_checkpoint
 from ..io.snapshots import SnapshotWriter
 from . import observables
 from .fragments import FragmentRecorder
-from .plots import plot_series
 from .results import finite_row, series_writer, write_root_attrs
 from .runloop import RunLoop, prepare_output, resume_point
 
@@ -98,21 +100,19 @@ def run_scene_file(path, doc, out_dir, comm, steps=None, fresh=False):
         loop.checkpoint(sim, "end of run")
     series.close()
     loop_s = _time.perf_counter() - loop.wall0
-    if comm.rank == 0:
-        plot_series(results, out / "results.png")
     last = sample(sim)
-    if comm.rank == 0:
+    if comm.rank == 0 and loop.status == 0:
         rate = n_total * (sim.step - step0) / loop_s if loop_s > 0 else 0.0
-        summary = [f"scene: {path}", f"ranks: {comm.size}", f"spheres: {n_total}", f"steps: {sim.step}",
-                   f"simulated time: {sim.time:.6g} s", f"final dt: {sim.dt:.4g} s",
-                   f"contacts per particle: {last['contacts_per_particle']:.3f}",
-                   f"unbalanced force ratio: {last['unbalanced_force']:.4g}", f"bed top: {last['bed_top']:.5g} m",
-                   f"force on floor z: {last['floor_force_z']:.6g} N", f"loop wall time: {loop_s:.2f} s",
-                   f"throughput: {rate / 1e6:.3f} M particle-steps/s", "", sim.timing_table()]
-        (out / "summary.txt").write_text("\n".join(summary) + "\n")
-        print("\n".join(summary[-2 - sim.timing_table().count('\n'):]), flush=True)
-        print(f"wrote {results}, {out / 'results.png'}, {out / 'summary.txt'}"
-              f"{', snapshots.xmf' if snaps else ''} (total {_time.perf_counter() - t_start:.1f} s)", flush=True)
+        about = [f"spheres: {n_total}", f"steps: {sim.step}", f"simulated time: {sim.time:.6g} s",
+                 f"final dt: {sim.dt:.4g} s", f"contacts per particle: {last['contacts_per_particle']:.3f}",
+                 f"unbalanced force ratio: {last['unbalanced_force']:.4g}", f"bed top: {last['bed_top']:.5g} m",
+                 f"force on floor z: {last['floor_force_z']:.6g} N", f"loop wall time: {loop_s:.2f} s",
+                 f"throughput: {rate / 1e6:.3f} M particle-steps/s"]
+        wall_s = _time.perf_counter() - t_start
+        write_run_info(out, summary="scene", title="scene", scene_file=str(path), ranks=comm.size, wall_s=wall_s,
+                       about=about, stages=[], stage_columns=[], preparation=None, notes=[],
+                       timing=sim.timing_table())
+        print(f"wrote {results}{', snapshots.xmf' if snaps else ''} (total {wall_s:.1f} s)", flush=True)
     loop.close()
     return loop.status
 

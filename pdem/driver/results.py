@@ -1,7 +1,7 @@
-"""Results files of pdem's runs, in the one format `analysis.schema` defines.
+"""Results files of pdem's runs, in the one format `pdem.format.schema` defines.
 
 The schema (name, version, the columns of every kind of run and their units) lives in
-`analysis.schema`; `analysis.io` reads it back with a version check, and
+`pdem.format.schema`; `pdem.format.read` reads it back with a version check, and
 tests/analysis/test_schema_roundtrip.py checks that a file pdem writes is one analysis reads.
 Writers are the engine's generic ones (`pdem.io.timeseries`) given that schema.
 """
@@ -9,7 +9,7 @@ import json
 
 import numpy as np
 
-from analysis import schema
+from ..format import schema
 
 from ..diagnostics import check_finite
 from ..errors import InstabilityError
@@ -50,7 +50,7 @@ def series_writer(path, columns, comm, restart_step=None, every=10):
 
 
 def write_cycles(path, columns, comm):
-    """The whole /cycles table (columns of `analysis.schema.CYCLE_COLUMNS`)."""
+    """The whole /cycles table (columns of `pdem.format.schema.CYCLE_COLUMNS`)."""
     write_table(path, "cycles", columns, schema.CYCLE_COLUMNS, schema=SCHEMA, comm=comm)
 
 

@@ -40,6 +40,7 @@ from ..checkpoint_state import restore_clock
 from ..config import run_settings
 from ..contact import stiffness_keys
 from ..errors import InputError
+from ..format.run import write_run_info
 from ..io.checkpoint import CheckpointError, read_checkpoint
 from ..io.snapshots import SnapshotWriter
 from ..scene import sphere_columns
@@ -269,8 +270,11 @@ class StagedRun:
     def report_stop(self, sim, wall_s):
         """Rank 0 after a run stopped by ``--steps``."""
 
-    def finish(self, sim, wall_s):
-        """Rank 0 at the end of the last stage: plots, analysis, summary."""
+    def finish(self, sim, wall_s, **facts):
+        """Rank 0 at the end of the last stage: the run's account for its post-processing
+        (run_info.json, `pdem.format.run`; ``facts`` are the scene's entries)."""
+        write_run_info(self.out, scene_file=str(self.path), ranks=self.comm.size, wall_s=wall_s,
+                       stages=self.state["stages"], timing=sim.timing_table(), **facts)
 
     # ------------------------------------------------------------------ the loop
     def run(self):

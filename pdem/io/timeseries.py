@@ -2,7 +2,7 @@
 
 Owns the mechanics of writing a results HDF5 file; what the file holds (its schema name and
 version, the columns of each kind of run and their units) is defined once, in
-`analysis.schema`, and passed in by pdem's driver (the engine never imports `analysis`). Only one process
+`pdem.format.schema`, and passed in by pdem's driver (the engine never imports `analysis`). Only one process
 writes (rank 0): the
 caller passes values already reduced over ranks; with ``comm`` given, the other ranks get a
 writer that does nothing. Which steps produce a row (the schedule) is the caller's business.

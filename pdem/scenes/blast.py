@@ -38,7 +38,7 @@ one run per seed, or one preparation run per seed and one run per (seed, plate) 
 ``prepared_from``.
 
 Output in the run directory: ``plate_<areal mass>/results.h5`` (kind "blast" of
-`analysis.schema`: series ``plate_position`` [m], ``plate_velocity`` [m/s], ``ceiling_stress`` σ0
+`pdem.format.schema`: series ``plate_position`` [m], ``plate_velocity`` [m/s], ``ceiling_stress`` σ0
 [Pa, compression positive], ``input_force`` [N], time 0 at the start of the impulse; the
 ``/blast`` group), ``preparation.h5`` and ``preparation.png``, ``analysis/`` (the analysis of
 `analysis.blast`: σ0(t), plate motion, impulse I_s and amplification against the paper; with
@@ -51,14 +51,11 @@ from pathlib import Path
 
 import numpy as np
 
-from analysis.schema import BLAST_RUN_SERIES, PREPARATION_SERIES, write_blast_parameters
-
 from ..boxes import blocked_mask
 from ..config import check_keys, run_settings, scene_from_dict
 from ..contact import viscous
 from ..driver import observables
 from ..driver.plain import write_snapshot
-from ..driver.plots import plot_energy, save_figure, series_figure
 from ..driver.results import series_writer, write_root_attrs
 from ..driver.stages import (
     Stage,
@@ -70,6 +67,7 @@ from ..driver.stages import (
     scaled_stiffness,
 )
 from ..errors import InputError, InstabilityError
+from ..format.schema import BLAST_RUN_SERIES, PREPARATION_SERIES, write_blast_parameters
 from ..generators import loose_cloud
 from ..io.checkpoint import (
     CheckpointError,
@@ -634,70 +632,11 @@ class BlastRun(StagedRun):
         return {"plate_z": None if sim.boxes is None else float(sim.boxes.center[0, 2])}
 
     def finish(self, sim, wall_s):
-        finish(self.out, self.state, self.c, self.path, self.comm.size, wall_s, sim.timing_table())
-
-
-def plot_preparation(h5_path, png_path):
-    """Layer top, plate centre, kinetic energy and unbalanced force over the preparation."""
-    s, fig, ax = series_figure(h5_path, 3, 1, (8, 8))
-    t = s["time"]
-    ax[0].plot(t, s["bed_top"], ".", ms=2, label="top of the layer")
-    ax[0].plot(t, np.where(s["sleeper_z"] == 0.0, np.nan, s["sleeper_z"]), ".", ms=2, label="plate centre")
-    ax[0].set_ylabel("height [m]")
-    ax[0].legend()
-    plot_energy(ax[1], t, s["kinetic_energy"])
-    ax[2].semilogy(t, np.maximum(s["unbalanced_force"], 1e-6), ".", ms=2)
-    ax[2].set_ylabel("unbalanced force ratio [-]")
-    ax[2].set_xlabel("time [s]")
-    save_figure(fig, png_path)
-
-
-def finish(out, state, c, path, ranks, wall_s, timing):
-    """Rank 0 at the end: the preparation plot, the blast analysis (`analysis.blast`) of every
-    plate and summary.txt."""
-    import json
-
-    from analysis.__main__ import main as analysis_main
-
-    if (out / "preparation.h5").exists():
-        try:
-            plot_preparation(out / "preparation.h5", out / "preparation.png")
-        except (KeyError, ValueError) as exc:  # a run that only loads a prepared layer has few rows
-            print(f"no preparation plot: {exc}", flush=True)
-    dirs = [out / plate_dir(m) for m in c["plates"]]
-    status = analysis_main(["blast", *map(str, dirs), "--out", str(out / "analysis")]) if dirs else 0
-    lines = [
-        f"blast layer: {path}",
-        f"ranks: {ranks}",
-        f"wall time: {wall_s:.1f} s",
-        f"prepared layer: {state['prepared']}",
-        "",
-        "stage        t_end [s]    steps  spheres  unbalanced  layer top [m]  plate z [m]  wall [s]",
-    ]
-    for r in state["stages"]:
-        z = f"{r['plate_z']:.5f}" if r["plate_z"] is not None else "-"
-        lines.append(
-            f"{r['stage']:<10} {r['t_end']:11.5f} {r['step_end']:8d} {r['spheres']:8d} {r['unbalanced_force']:11.3g} "
-            f"{r['bed_top']:14.5f} {z:>12} {r['wall_s']:9.1f}"
-        )
-    lines += [
-        "",
-        f"impulse F0 = {c['F0']:g} N over tau = {c['tau']:g} s, {c['duration'] * 1e3:g} ms recorded",
-        "plate [kg/m^2]   I_s [MPa s]   I_s/I_in   I_s,dyn/I_in   peak sigma_0 [MPa]   paper I_s   paper I_s/I_in",
-    ]
-    for m, d in zip(c["plates"], dirs):
-        f = out / "analysis" / ("blast.json" if len(dirs) == 1 else f"{d.name}/blast.json")
-        if not f.exists():
-            continue
-        r = json.loads(f.read_text())
-        paper = r["paper"] or {}
-        lines.append(
-            f"{m:14g}   {r['impulse'] * 1e-6:11.4e}   {r['amplification']:8.3f}   {r['amplification_dynamic']:12.3f}"
-            f"   {r['peak_stress'] * 1e-6:18.3f}   {paper.get('impulse', float('nan')) * 1e-6:9.3e}   "
-            f"{paper.get('amplification', float('nan')):14.2f}"
-        )
-    lines += ["", timing]
-    (out / "summary.txt").write_text("\n".join(lines) + "\n")
-    print("\n".join(lines), flush=True)
-    print(f"wrote {', '.join(str(d / 'results.h5') for d in dirs)}, {out / 'summary.txt'} and {out / 'analysis'}/ "
-          f"(analysis exit status {status})", flush=True)
+        c = self.c
+        super().finish(sim, wall_s, summary="blast", title="blast layer",
+                       about=[f"prepared layer: {self.state['prepared']}"],
+                       stage_columns=[("plate_z", "plate z [m]", ".5f")],
+                       preparation={"stages": list(self.STAGES), "body": "plate centre"},
+                       notes=[f"impulse F0 = {c['F0']:g} N over tau = {c['tau']:g} s, {c['duration'] * 1e3:g} ms "
+                              "recorded"],
+                       plates=[(m, plate_dir(m)) for m in c["plates"]])

@@ -41,17 +41,17 @@ Each stage ends with a checkpoint; stage boundaries go through it (every rank re
 gid-ordered tables back, removes and adds bodies, and builds the next stage's scene with the
 contact history carried by key), so a run is bit-identical on any rank count and resumes from
 any checkpoint, mid-stage or between stages. Output in the run directory: ``preparation.h5``
-(series of every preparation stage), ``results.h5`` (kind "box_test", `analysis.schema`:
+(series of every preparation stage), ``results.h5`` (kind "box_test", `pdem.format.schema`:
 series ``sleeper_load``, ``sleeper_force`` [N, ballast reaction, positive up],
 ``sleeper_settlement`` [m, positive down, zero when cycling starts], and the ``cycles`` table),
 ``preparation.png``, the analysis of `analysis.box` (``loops.png``, ``settlement.png``,
 ``stiffness.png``, ``analysis.txt``) and ``summary.txt`` with the timing table.
 """
 import numpy as np
-from analysis.schema import BOX_TEST_SERIES
 
 from ..config import CLUMP_KEYS, check_keys, grain_shape, run_settings, scene_from_dict
 from ..diagnostics import kinetic_energy
+from ..format.schema import BOX_TEST_SERIES
 from ..driver import observables
 from ..driver.observables import box_face_forces
 from ..driver.results import series_writer, write_cycles, write_root_attrs
@@ -59,7 +59,7 @@ from ..driver.stages import Stage, empty_tables, remove_above, scaled_stiffness
 from ..errors import InputError
 from ..loads import HalfSine, Haversine
 from ..validate import number
-from .common.preparation import PREPARATION_DEFAULTS, PreparedRun, add_cloud, check_preparation, plot_preparation, \
+from .common.preparation import PREPARATION_DEFAULTS, PreparedRun, add_cloud, check_preparation, \
     pour_stage, refill_stage, remove_where, settle_stage, vibrate_stage
 from .cycles import CycleRecorder
 
@@ -303,7 +303,7 @@ CYCLE_EXTRA = ("settlement_at_force_max", "settlement_max", "force_bottom_peak",
 
 
 def cycle_columns(recorder):
-    """The per-cycle table in `analysis.schema` terms (cycle numbered from 1)."""
+    """The per-cycle table in `pdem.format.schema` terms (cycle numbered from 1)."""
     t = recorder.table()
     return {"cycle": t["cycle"] + 1.0, "t_start": t["t_start"], "settlement_start": t["settlement_start"],
             "settlement_peak": t["settlement_peak"], "settlement_end": t["settlement_end"],
@@ -522,39 +522,8 @@ class BoxTestRun(PreparedRun):
         )
 
     def finish(self, sim, wall_s):
-        finish(self.out, self.results, sim, self.state, self.c, self.path, self.comm.size, wall_s, self.STAGES)
-
-
-def finish(out, results, sim, state, c, path, ranks, wall_s, stages):
-    """Rank 0 at the end: plots, the analysis of the cycles and summary.txt (with timing): the
-    scene's finishing step calls the analysis entry point `analysis.__main__.main`."""
-    from analysis.__main__ import main as analysis_main
-
-    plot_preparation(out / "preparation.h5", out / "preparation.png", stages)
-    status = analysis_main(["box", str(results), "--out", str(out / "analysis")])
-    lines = [f"box test: {path}", f"ranks: {ranks}", f"wall time: {wall_s:.1f} s", "",
-             "stage     t_end [s]    steps  spheres  unbalanced  bed top [m]  sleeper z [m]  wall [s]"]
-    for r in state["stages"]:
-        z = f"{r['sleeper_z']:.4f}" if r["sleeper_z"] is not None else "-"
-        lines.append(
-            f"{r['stage']:<8} {r['t_end']:9.4f} {r['step_end']:8d} {r['spheres']:8d} {r['unbalanced_force']:11.3g} "
-            f"{r['bed_top']:12.4f} {z:>14} {r['wall_s']:9.1f}"
-        )
-    lines += ["", f"cycles {c['f_min']:g} <-> {c['f_max']:g} N at {c['frequency']:g} Hz",
-              "cycle  settlement start/peak/end [mm]     ballast force min/max [N]"]
-    import h5py
-
-    with h5py.File(results, "r") as f:
-        cyc = {k: f["cycles"][k][...] for k in f["cycles"]} if "cycles" in f else None
-    if cyc is not None:
-        for k in range(len(cyc["cycle"])):
-            lines.append(
-                f"{int(cyc['cycle'][k]):5d}  {1e3 * cyc['settlement_start'][k]:9.3f} "
-                f"{1e3 * cyc['settlement_peak'][k]:9.3f} "
-                f"{1e3 * cyc['settlement_end'][k]:9.3f}   {cyc['force_min'][k]:10.1f} {cyc['force_peak'][k]:10.1f}"
-            )
-    lines += ["", sim.timing_table()]
-    (out / "summary.txt").write_text("\n".join(lines) + "\n")
-    print("\n".join(lines), flush=True)
-    print(f"wrote {results}, {out / 'preparation.h5'}, {out / 'preparation.png'}, {out / 'summary.txt'} and "
-          f"{out / 'analysis'}/ (analysis exit status {status})", flush=True)
+        c = self.c
+        super().finish(sim, wall_s, summary="box_test", title="box test", about=[],
+                       stage_columns=[("sleeper_z", "sleeper z [m]", ".4f")],
+                       preparation={"stages": list(self.STAGES), "body": "sleeper centre"},
+                       notes=[f"cycles {c['f_min']:g} <-> {c['f_max']:g} N at {c['frequency']:g} Hz"])

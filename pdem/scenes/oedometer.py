@@ -37,7 +37,7 @@ samples); each copy turned by its own random rotation (seeded). Breakable clumps
 the cloud.
 
 Output in the run directory: ``preparation.h5`` and ``preparation.png`` (the pipeline),
-``results.h5`` (kind "oedometer", `analysis.schema.OEDOMETER_SERIES`: ``platen_load`` [N, the
+``results.h5`` (kind "oedometer", `pdem.format.schema.OEDOMETER_SERIES`: ``platen_load`` [N, the
 program, down], ``platen_force`` [N, force of the ballast on the platen, up],
 ``platen_displacement`` [m, down, zero when loading starts], ``max_overlap_ratio`` [-, the largest
 overlap over the smaller radius of its pair: how far the load pushes the contacts]; with breakable clumps
@@ -50,7 +50,6 @@ from dataclasses import replace
 from math import cos, pi
 
 import numpy as np
-from analysis.schema import OEDOMETER_SERIES
 
 from ..bonds import touching_pairs
 from ..config import CLUMP_KEYS, check_keys, grain_shape, run_settings, scene_from_dict
@@ -60,11 +59,12 @@ from ..driver.results import series_writer, write_root_attrs
 from ..driver.stages import Stage, append_bodies, append_tables, check_no_steps, clump_tables, empty_tables, \
     next_free_clump, remove_above
 from ..errors import InputError
+from ..format.schema import OEDOMETER_SERIES
 from ..generators import sphere_radii
 from ..loads import Haversine
 from ..validate import boolean, number
 from .common.preparation import PREPARATION_DEFAULTS, PREPARATION_STAGES, PreparedRun, check_preparation, \
-    plot_preparation, pour_stage, refill_stage, settle_stage, vibrate_stage
+    pour_stage, refill_stage, settle_stage, vibrate_stage
 
 STAGES = PREPARATION_STAGES + ("load",)
 # [oedometer] keys and defaults (SPEC.md 2.2, thesis tables 4.1, 4.8, 4.15; stiffness in [materials])
@@ -496,28 +496,7 @@ class OedometerRun(PreparedRun):
         return on_step, lambda sim: sim.time >= t_end, 1, t_end
 
     def finish(self, sim, wall_s):
-        finish(self.out, self.results, self.state, self.c, self.path, self.comm.size, wall_s, sim)
-
-
-def finish(out, results, state, c, path, ranks, wall_s, sim):
-    """Rank 0 at the end: plots, the analysis (`analysis.oedometer`) and summary.txt with timing."""
-    from analysis.__main__ import main as analysis_main
-
-    plot_preparation(out / "preparation.h5", out / "preparation.png", STAGES)
-    status = analysis_main(["oedometer", str(results), "--out", str(out / "analysis"), "--intact-members",
-                            str(intact_members(c))])
-    lines = [f"oedometer: {path}", f"ranks: {ranks}", f"wall time: {wall_s:.1f} s", "",
-             "stage     t_end [s]    steps  spheres  unbalanced  bed top [m]  platen z [m]  wall [s]"]
-    for r in state["stages"]:
-        z = f"{r['sleeper_z']:.4f}" if r["sleeper_z"] is not None else "-"
-        lines.append(f"{r['stage']:<8} {r['t_end']:9.4f} {r['step_end']:8d} {r['spheres']:8d} "
-                     f"{r['unbalanced_force']:11.3g} {r['bed_top']:12.4f} {z:>13} {r['wall_s']:9.1f}")
-    report = out / "analysis" / "oedometer.txt"
-    if report.exists():
-        lines += ["", report.read_text().rstrip()]
-    lines += ["", sim.timing_table()]
-    (out / "summary.txt").write_text("\n".join(lines) + "\n")
-    print("\n".join(lines), flush=True)
-    print(f"wrote {results}, {out / 'preparation.h5'}, {out / 'summary.txt'} and {out / 'analysis'}/ "
-          f"(analysis exit status {status})", flush=True)
-
+        super().finish(sim, wall_s, summary="oedometer", title="oedometer", about=[],
+                       stage_columns=[("sleeper_z", "platen z [m]", ".4f")],
+                       preparation={"stages": list(STAGES), "body": "platen centre"}, notes=[],
+                       intact_members=intact_members(self.c))

@@ -47,7 +47,7 @@ the thesis's order for the track (compact the bed, then cut it and place the sle
                 seat] at ``frequency`` [Hz] on every sleeper, one passage per cycle (the
                 thesis's 0 -> F -> 0).
 
-Results (`analysis.schema`, kind "track"): ``results.h5`` with /series (`TRACK_SERIES`), /track
+Results (`pdem.format.schema`, kind "track"): ``results.h5`` with /series (`TRACK_SERIES`), /track
 (settlement and ballast force of every sleeper per sample), /passages (peak and permanent
 settlement, gap under each sleeper), /forces/peak_passage_<p> and end_passage_<p> (contact force
 distributions, passages 1, every ``forces_every``-th and the last); ``preparation.h5`` and
@@ -73,7 +73,7 @@ from ..errors import InputError
 from ..io.checkpoint import CheckpointError, read_checkpoint
 from ..loads import ETA_ZERO, AxleTrain, Haversine
 from ..validate import boolean, number
-from .common.preparation import PREPARATION_DEFAULTS, PreparedRun, add_cloud, check_preparation, plot_preparation, \
+from .common.preparation import PREPARATION_DEFAULTS, PreparedRun, add_cloud, check_preparation, \
     pour_stage, refill_stage, remove_where, settle_stage, vibrate_stage
 from .track_record import PassageTracker, TrackWriter, sleeper_sample, write_force_record, write_sleepers
 
@@ -617,7 +617,20 @@ class TrackRun(PreparedRun):
         print("\n".join(lines), flush=True)
 
     def finish(self, sim, wall_s):
-        finish(self, sim, wall_s)
+        """Rank 0 at the end: scaling.json and the run's account (with the track's description, the
+        load balance and the traffic) for `python -m analysis summary`."""
+        c, g, prepared = self.c, profile(self.c), self.state["prepared_from"]
+        about = [f"{'half (y >= 0), ' if c['half'] else ''}{c['sleepers']} sleeper(s) {c['sleeper_size']} m at "
+                 f"{c['spacing']} m, bed depth {c['bed_depth']} m, shoulder {c['shoulder_width']} m, slope "
+                 f"1:{c['slope']}; track {g['length']:g} m x {g['y_toe'] - g['y_lo']:.3f} m at the toe; sleeper body "
+                 f"{c['body_mass']:.1f} kg"] + ([f"prepared bed: {prepared}"] if prepared else [])
+        traffic = self.t is not None and (self.out / "results.h5").exists()
+        super().finish(sim, wall_s, summary="track", title="track section", about=about,
+                       stage_columns=[("sleeper_z", "sleeper z [m]", ".4f"), ("balance", "balance", ".3f")],
+                       preparation=None if prepared else {"stages": list(PREPARATION), "body": "sleeper centre"},
+                       notes=balance_lines(self.write_scaling(sim, wall_s))
+                       + (["", f"traffic: {self.traffic_text()}"] if traffic else []),
+                       traffic=traffic)
 
 
 def _load_average():
@@ -640,53 +653,3 @@ def balance_lines(rec):
     for r in range(rec["ranks"]):
         lines.append(f"{r:4d} {ld['owned'][r]:8d} {ld['ghosts'][r]:8d} {ld['contacts'][r]:9d} {ld['work'][r]:9.0f}")
     return lines
-
-
-def finish(run, sim, wall_s):
-    """Rank 0 at the end: preparation plot, scaling.json, the analysis (`analysis.track`) and
-    summary.txt."""
-    from analysis.__main__ import main as analysis_main
-
-    out, c, t = run.out, run.c, run.t
-    rec = run.write_scaling(sim, wall_s)
-    if (out / "preparation.h5").exists() and run.state["prepared_from"] is None:
-        plot_preparation(out / "preparation.h5", out / "preparation.png", PREPARATION)
-    g = profile(c)
-    lines = [f"track section: {run.path}",
-             f"{'half (y >= 0), ' if c['half'] else ''}{c['sleepers']} sleeper(s) {c['sleeper_size']} m at "
-             f"{c['spacing']} m, bed depth {c['bed_depth']} m, shoulder {c['shoulder_width']} m, slope 1:{c['slope']}; "
-             f"track {g['length']:g} m x {g['y_toe'] - g['y_lo']:.3f} m at the toe; sleeper body "
-             f"{c['body_mass']:.1f} kg",
-             ""]
-    if run.state["prepared_from"]:
-        lines += [f"prepared bed: {run.state['prepared_from']}", ""]
-    lines += ["stage     t_end [s]    steps  spheres  unbalanced  bed top [m]  sleeper z [m]  balance  wall [s]"]
-    for r in run.state["stages"]:
-        z = f"{r['sleeper_z']:.4f}" if r.get("sleeper_z") is not None else "-"
-        lines.append(f"{r['stage']:<8} {r['t_end']:9.4f} {r['step_end']:8d} {r['spheres']:8d} "
-                     f"{r['unbalanced_force']:11.3g} {r['bed_top']:12.4f} {z:>14} "
-                     f"{r.get('balance', float('nan')):8.3f} {r['wall_s']:9.1f}")
-    lines += [""] + balance_lines(rec)
-    status = None
-    if t is not None and (out / "results.h5").exists():
-        lines += ["", f"traffic: {run.traffic_text()}"]
-        import h5py
-
-        with h5py.File(out / "results.h5", "r") as f:
-            if "passages" in f:
-                pg = {k: f["passages"][k][...] for k in f["passages"]}
-                lines.append("passage  t_end [s]  settlement peak mean/max [mm]  permanent mean/min/max [mm]  "
-                             "gap max [mm]")
-                for i in range(len(pg["passage"])):
-                    pk, pm = pg["settlement_peak"][i], pg["settlement_permanent"][i]
-                    lines.append(f"{int(pg['passage'][i]):7d} {pg['t_end'][i]:10.4f}  {1e3 * pk.mean():9.3f} "
-                                 f"{1e3 * pk.max():9.3f}            {1e3 * pm.mean():8.3f} {1e3 * pm.min():8.3f} "
-                                 f"{1e3 * pm.max():8.3f}   {1e3 * pg['gap'][i].max():9.3f}")
-        status = analysis_main(["track", str(out / "results.h5"), "--out", str(out / "analysis")])
-    lines += ["", sim.timing_table()]
-    (out / "summary.txt").write_text("\n".join(lines) + "\n")
-    print("\n".join(lines), flush=True)
-    print(f"wrote {out / 'summary.txt'}, {out / 'scaling.json'}"
-          + (f", {out / 'results.h5'} and {out / 'analysis'}/ (analysis exit status {status})" if status is not None
-             else ""), flush=True)
-

@@ -1,4 +1,4 @@
-"""Records of a track section under traffic, in the kind "track" layout of `analysis.schema`.
+"""Records of a track section under traffic, in the kind "track" layout of `pdem.format.schema`.
 
 - `PassageTracker` follows every sleeper through the passages of a load program: settlement
   (positive down, from the sleeper's centre at the start of traffic [m]), its largest value in
@@ -7,7 +7,7 @@
   nominal peak (the first axle over the middle sleeper, or mid-cycle). Plain data, JSON state
   for checkpoints; fed every step with the replicated sleeper positions (identical on every
   rank), so every rank takes the same decisions.
-- `TrackWriter` writes ``/series`` (`analysis.schema.TRACK_SERIES`) and the per-sleeper rows
+- `TrackWriter` writes ``/series`` (`pdem.format.schema.TRACK_SERIES`) and the per-sleeper rows
   of ``/track`` (settlement [m], ballast force on the sleeper, positive up [N]) together, one
   row of each per sample, and ``/passages`` (peak, permanent settlement and the gap under each
   sleeper, `observables.box_gaps`). After a restart it cuts ``/series`` and ``/track`` to the
@@ -23,7 +23,7 @@ Only rank 0 writes; the others go through the same calls (the collectives inside
 """
 import h5py
 import numpy as np
-from analysis import schema
+from ..format import schema
 
 from ..driver import observables
 from ..driver.results import series_writer

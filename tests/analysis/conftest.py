@@ -11,8 +11,8 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from analysis import ResultFileError
-from analysis.schema import write_results
+from pdem.format.read import ResultFileError
+from pdem.format.schema import write_results
 
 F_MIN, F_MAX = 3.0e3, 40.0e3  # [N]
 A, B = 4.0e-3, 1.5e-3         # S(N) = A + B ln N [m]

@@ -15,12 +15,12 @@ import h5py
 import numpy as np
 import pytest
 
-from analysis import write_results
+from pdem.format.schema import write_results
 from analysis.__main__ import main
 from analysis.blast import (PAPER, PAPER_INPUT_IMPULSE, analyse_blast, compare_blast,
                             cumulative_trapezoid)
-from analysis.groups import read_blast
-from analysis.schema import write_blast_parameters
+from pdem.format.groups import read_blast
+from pdem.format.schema import write_blast_parameters
 
 F0, TAU, AREA = 9.0e6, 1.0e-4, 0.09
 S0, S, A = 2.0e3, 4.0e6, 2.0e-3

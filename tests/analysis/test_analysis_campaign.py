@@ -1,5 +1,5 @@
 """``python -m analysis campaign`` and ``error-vs-runtime`` on synthetic campaign directories:
-a manifest as pdem campaign writes it, member directories with results.h5 (analysis.schema's
+a manifest as pdem campaign writes it, member directories with results.h5 (pdem.format.schema's
 write_results) and run.json, and known answers."""
 import importlib.util
 import json
@@ -12,7 +12,7 @@ from scipy import stats as sps
 from analysis.__main__ import main
 from analysis.campaign import CampaignError, Quantity, campaign_report, envelope, read_campaign
 from analysis.error_vs_runtime import error_report, select_reference
-from analysis.schema import write_results
+from pdem.format.schema import write_results
 
 _spec = importlib.util.spec_from_file_location("analysis_records", Path(__file__).with_name("conftest.py"))
 records = importlib.util.module_from_spec(_spec)

@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from analysis import write_results
+from pdem.format.schema import write_results
 from analysis.__main__ import main
 
 REPO = Path(__file__).resolve().parents[2]

@@ -15,13 +15,13 @@ import h5py
 import numpy as np
 import pytest
 
-from analysis import write_results
+from pdem.format.schema import write_results
 from analysis.__main__ import build_parser, main
 from analysis.grading import (analyse_grading, ballast_breakage_index, grading_curve,
                               grading_lines, hardin, marsal, passing, sieve_diameter,
                               sieve_series)
-from analysis.groups import read_fragments
-from analysis.schema import fragment_label, write_fragments
+from pdem.format.groups import read_fragments
+from pdem.format.schema import fragment_label, write_fragments
 
 R, RHO = 3.6e-3, 2600.0
 M1 = RHO * 4.0 / 3.0 * math.pi * R**3   # one member sphere [kg]

@@ -4,7 +4,8 @@ import h5py
 import numpy as np
 import pytest
 
-from analysis import SCHEMA, read_box_test, read_results, write_results
+from pdem.format.read import read_box_test, read_results
+from pdem.format.schema import SCHEMA, write_results
 
 
 def test_round_trip(box_file, box_record):

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from analysis.__main__ import main
-from analysis.schema import write_results
+from pdem.format.schema import write_results
 from analysis.stability import energy_balance, judge_campaigns, scan_member
 
 MARK = "=== pdem campaign: attempt"

@@ -13,10 +13,10 @@ import h5py
 import numpy as np
 import pytest
 
-from analysis import write_results
+from pdem.format.schema import write_results
 from analysis.__main__ import build_parser, main
-from analysis.groups import read_track
-from analysis.schema import append_passages, append_track_rows, write_forces, write_track
+from pdem.format.groups import read_track
+from pdem.format.schema import append_passages, append_track_rows, write_forces, write_track
 from analysis.track import analyse_track, exceedance, force_statistics, passage_table
 
 X = np.array([0.0, 0.6, 1.2, 1.8])

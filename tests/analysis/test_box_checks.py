@@ -12,7 +12,7 @@ import pytest
 from analysis.__main__ import main
 from analysis.box_checks import DAMPING_CASES, FREQUENCY_CASES, STIFFNESS_CASES, box_checks_report, build_checks
 from analysis.campaign import CampaignError, read_campaign
-from analysis.schema import write_results
+from pdem.format.schema import write_results
 
 _spec = importlib.util.spec_from_file_location("analysis_records", Path(__file__).with_name("conftest.py"))
 records = importlib.util.module_from_spec(_spec)

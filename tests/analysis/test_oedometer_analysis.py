@@ -8,7 +8,7 @@ import pytest
 
 from analysis.__main__ import main
 from analysis.oedometer import analyse, identify_modulus
-from analysis.schema import write_results
+from pdem.format.schema import write_results
 
 
 def record(k_load=2e6, k_unload=8e6, f_min=250.0, f_max=1.5e6, n=401):

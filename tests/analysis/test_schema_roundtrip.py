@@ -1,15 +1,15 @@
-"""pdem writes the results format `analysis.schema` defines, and `analysis` reads it back.
+"""pdem writes the results format `pdem.format.schema` defines, and `analysis` reads it back.
 
 A small plain scene is run through pdem's driver (the same code as ``pdem run``, on one rank);
-its results.h5 is read by `analysis.io.read_results` (schema name and version checked) and every
-/series column carries the units `analysis.schema.RUN_SERIES` gives it. The box test's side of
+its results.h5 is read by `pdem.format.read.read_results` (schema name and version checked) and every
+/series column carries the units `pdem.format.schema.RUN_SERIES` gives it. The box test's side of
 the same contract (BOX_TEST_SERIES, CYCLE_COLUMNS) is exercised end to end by
-tests/scenes/test_box_test.py, whose finishing step runs `python -m analysis box`.
+tests/scenes/test_box_test.py, whose post-processing runs `python -m analysis summary`.
 """
 import h5py
 
-from analysis import schema
-from analysis.io import read_results
+from pdem.format import schema
+from pdem.format.read import read_results
 from pdem.cli import run_file
 
 SCENE = """

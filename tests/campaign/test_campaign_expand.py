@@ -8,7 +8,8 @@ import pytest
 
 from campaign_helpers import ROOT, write_campaign
 from pdem.campaign.cli import main as campaign_main
-from pdem.campaign.layout import MANIFEST, read_manifest, write_campaign as expand_into
+from pdem.campaign.layout import read_manifest, write_campaign as expand_into
+from pdem.format.campaign import MANIFEST
 from pdem.campaign.spec import load_campaign, set_path, short_names, value_label
 from pdem.campaign.tomlw import dumps
 from pdem.errors import InputError

@@ -2,7 +2,7 @@
 clumps and partly broken bonds, resumed on 1, 2 and 3 ranks gives the uninterrupted serial run's
 bits: the final checkpoint's tables (bodies, clumps, clump members, contacts with the bond
 history), the time series and the fragment records written every 500 steps (run.fragments_every;
-`/fragments`, read back with `analysis.groups.read_fragments`).
+`/fragments`, read back with `pdem.format.groups.read_fragments`).
 """
 import shutil
 from pathlib import Path
@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 from pdem_cli import needs_mpiexec, run_pdem
 
-from analysis.groups import read_fragments
+from pdem.format.groups import read_fragments
 from pdem.io.checkpoint import read_checkpoint
 
 N_STEPS, K_STEP = 3000, 1777

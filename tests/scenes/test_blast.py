@@ -25,7 +25,7 @@ import tomllib
 from pdem_cli import run_pdem
 
 from analysis.blast import analyse_blast
-from analysis.groups import read_blast
+from pdem.format.groups import read_blast
 from pdem import InputError, InstabilityError
 from pdem.io.checkpoint import list_checkpoints, read_checkpoint
 from pdem.scenes import blast

@@ -22,7 +22,7 @@ import h5py
 import numpy as np
 import pytest
 
-from analysis.io import read_box_test
+from pdem.format.read import read_box_test
 from pdem_cli import needs_mpiexec, pdem_cmd, run_pdem
 from factories import BOX_MATERIALS
 from pdem.scenes.common.preparation import cloud, cloud_count

@@ -18,7 +18,7 @@ import pytest
 from factories import OEDOMETER_CI_JOB, oedometer_ci_doc, toml_text
 from run_files import run_differences
 
-from analysis.groups import read_fragments
+from pdem.format.groups import read_fragments
 from pdem.errors import InputError
 from pdem.io.checkpoint import list_checkpoints
 from pdem.scenes import oedometer

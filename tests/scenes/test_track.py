@@ -25,8 +25,8 @@ import numpy as np
 import pytest
 import tomllib
 
-from analysis import schema
-from analysis.groups import read_track
+from pdem.format import schema
+from pdem.format.groups import read_track
 from analysis.track import analyse_track, passage_table
 from pdem.driver import observables
 from pdem.scenes.track_record import PassageTracker, TrackWriter, write_sleepers

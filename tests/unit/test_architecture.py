@@ -1,12 +1,16 @@
 """The layers of pdem, checked on the source (AST of every module, lazy imports included).
 
-Layers, top down: scenes (and jobs) → driver → engine; `analysis/` reads files only. The engine
-(every module of pdem/ outside driver/, scenes/ and the command line) never imports the driver,
-the scenes or analysis; the driver never imports the scenes; only pdem/parallel/comm.py imports
-mpi4py; analysis never imports pdem; and no two modules of pdem import each other, directly or
-through others (an import cycle).
+Layers, top down: the command line → scenes (and jobs) → driver → engine; `analysis/` reads files
+only, with `pdem.format` (the file format, at the bottom). The engine (every module of pdem/
+outside driver/, scenes/, format/ and the command line) never imports the driver or the scenes;
+nothing of pdem but the command line imports analysis; the driver never imports the scenes; only
+pdem/parallel/comm.py imports mpi4py; analysis imports of pdem only `pdem.format`; `pdem.format`
+imports numpy, h5py and the standard library only (and `import pdem.format` loads nothing else of
+pdem); and no two modules of pdem import each other, directly or through others (an import cycle).
 """
 import ast
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -60,6 +64,8 @@ def layer(path):
     rel = path.relative_to(ROOT).as_posix()
     if rel in TOP or rel.startswith("pdem/campaign/"):
         return "top"
+    if rel.startswith("pdem/format/"):
+        return "format"
     if rel.startswith("pdem/scenes/"):
         return "scenes"
     if rel.startswith("pdem/driver/"):
@@ -67,13 +73,15 @@ def layer(path):
     return "engine"
 
 
-def test_engine_imports_no_driver_scenes_or_analysis():
+def test_layers_import_downward_and_only_the_command_line_imports_analysis():
     bad = []
     for name, path in pdem_modules().items():
         lay = layer(path)
         for imp in imports(path):
             top = imp.split(".")[0]
-            if lay == "engine" and (imp.startswith(("pdem.driver", "pdem.scenes")) or top == "analysis"):
+            if lay != "top" and top == "analysis":
+                bad.append(f"{name} ({lay}) imports {imp}")
+            if lay == "engine" and imp.startswith(("pdem.driver", "pdem.scenes")):
                 bad.append(f"{name} imports {imp}")
             if lay == "driver" and imp.startswith("pdem.scenes"):
                 bad.append(f"{name} (driver) imports {imp}")
@@ -89,8 +97,28 @@ def test_only_parallel_comm_imports_mpi4py():
 
 def test_analysis_reads_files_only():
     bad = [f"{p.name} imports {i}" for p in (ROOT / "analysis").rglob("*.py") for i in imports(p)
-           if i.split(".")[0] in ("pdem", "numba", "mpi4py")]
+           if i.split(".")[0] in ("numba", "mpi4py") or (i.split(".")[0] == "pdem" and not i.startswith("pdem.format"))]
     assert not bad, bad
+
+
+def test_format_imports_numpy_h5py_and_stdlib_only():
+    allowed = {"numpy", "h5py", "pdem", *sys.stdlib_module_names}
+    bad = [f"{name} imports {i}" for name, path in pdem_modules().items() if layer(path) == "format"
+           for i in imports(path)
+           if i.split(".")[0] not in allowed or (i.split(".")[0] == "pdem" and not i.startswith("pdem.format"))]
+    assert not bad, bad
+
+
+def test_format_and_analysis_load_no_engine():
+    """``import pdem.format; import analysis`` in a fresh interpreter: no numba, nothing of pdem
+    but the package itself and pdem.format (pdem/__init__.py loads its names lazily)."""
+    code = ("import sys, pdem.format, pdem.format.schema, pdem.format.read, pdem.format.groups, pdem.format.campaign, "
+            "analysis, analysis.__main__; print(' '.join(sorted(sys.modules)))")
+    loaded = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True,
+                            cwd=ROOT).stdout.split()
+    assert "numba" not in loaded and "mpi4py" not in loaded
+    other = [m for m in loaded if m.startswith("pdem.") and not m.startswith("pdem.format")]
+    assert "pdem" in loaded and "pdem.format" in loaded and not other, other
 
 
 def find_cycle(graph):
@@ -139,7 +167,8 @@ def test_cycle_finder_finds_a_cycle():
     assert find_cycle({"a": {"b"}, "b": set()}) is None
 
 
-@pytest.mark.parametrize("name", ["pdem.driver.runloop", "pdem.scenes.box_test", "pdem.contact.loops"])
+@pytest.mark.parametrize("name", ["pdem.driver.runloop", "pdem.scenes.box_test", "pdem.contact.loops",
+                                  "pdem.format.schema"])
 def test_modules_are_seen(name):
     """The scan covers the subpackages (guards against a walk that finds nothing)."""
     assert name in pdem_modules()

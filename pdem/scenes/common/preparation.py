@@ -32,7 +32,7 @@ has passed (then a warning line is printed and the pipeline goes on).
 
 Keys and defaults of the pipeline: `PREPARATION_DEFAULTS` (a scene's table holds them next to
 its own keys; `check_preparation` validates them). Records: ``preparation.h5`` (kind
-"preparation", `analysis.schema.PREPARATION_SERIES`: step, time, stage, spheres, kinetic
+"preparation", `pdem.format.schema.PREPARATION_SERIES`: step, time, stage, spheres, kinetic
 energy, unbalanced force, contacts per particle, top of the bed, ``sleeper_z`` = mean centre
 height of the scene's rigid bodies [m], 0 before they are placed) and ``preparation.png``; ParaView snapshots every
 run.snapshot_every steps and at the end of every stage.
@@ -45,15 +45,14 @@ clumps), placements and settling are per body, not per sphere shape.
 from math import cos, pi, sin
 
 import numpy as np
-from analysis.schema import PREPARATION_SERIES
 
 from ...driver import observables
 from ...driver.plain import write_snapshot
-from ...driver.plots import plot_energy, save_figure, series_figure
 from ...driver.results import series_writer
 from ...driver.stages import Stage, StagedRun, append_bodies, append_tables, clump_tables, keep_tables, \
     next_free_clump
 from ...errors import InputError
+from ...format.schema import PREPARATION_SERIES
 from ...generators import loose_cloud
 from ...validate import number
 
@@ -336,24 +335,3 @@ def vibrate_stage(run, scene, trim=keep_tables):
 
     return Stage("vibrate", scene, program, open=trim, prepare=prepare, close=close, record=run.stage_record,
                  max_steps=0 if c["vibration_time"] == 0 else 10**15)
-
-
-def plot_preparation(h5_path, png_path, stages):
-    """Bed top, rigid-body height, kinetic energy and unbalanced force over the preparation."""
-    s, fig, ax = series_figure(h5_path, 3, 1, (8, 8))
-    t = s["time"]
-    ax[0].plot(t, s["bed_top"], label="top of the ballast")
-    ax[0].plot(t, np.where(s["sleeper_z"] == 0.0, np.nan, s["sleeper_z"]), label="sleeper centre")
-    ax[0].set_ylabel("height [m]")
-    ax[0].legend()
-    plot_energy(ax[1], t, s["kinetic_energy"])
-    ax[2].semilogy(t, np.maximum(s["unbalanced_force"], 1e-6))
-    ax[2].set_ylabel("unbalanced force ratio [-]")
-    ax[2].set_xlabel("time [s]")
-    for k in range(1, len(stages)):
-        starts = t[s["stage"] == k]
-        if len(starts):
-            for a in ax:
-                a.axvline(starts[0], color="0.7", lw=0.8)
-            ax[0].text(starts[0], ax[0].get_ylim()[1], stages[k], fontsize=8, va="top")
-    save_figure(fig, png_path)

@@ -1,9 +1,11 @@
-"""Open, validate and read pdem results files (format in `analysis.schema`).
+"""Open, validate and read pdem results files (format in `pdem.format.schema`).
 
-This module owns `ResultFileError` and the readers. Everything read comes back as plain numpy
-float64 arrays in SI units ([s], [m], [N]). Any file that is not a valid pdem result raises
-`ResultFileError` with one line naming the file and the problem. Imports numpy and h5py only;
-never pdem.
+This module owns `ResultFileError`, the one way to open a results file (`open_results`),
+`results_file` (a run directory or a file -> the results file) and the readers of the root
+attributes, ``/series`` and ``/cycles`` (`read_results`; `pdem.format.groups` reads the optional
+groups). Everything read comes back as plain numpy float64 arrays in SI units ([s], [m], [N]).
+Any file that is not a valid pdem result raises `ResultFileError` with one line naming the file
+and the problem (or, with ``lenient``, gives None). Imports numpy and h5py only.
 """
 
 from __future__ import annotations
@@ -17,6 +19,8 @@ import numpy as np
 
 from .schema import (BOX_SERIES, CYCLE_FIELDS, CYCLE_UNITS, REQUIRED_SERIES, ROOT_ATTRS,
                      SCHEMA, SCHEMA_VERSION, SERIES_UNITS)
+
+RESULTS_NAME = "results.h5"  # the results file of a run directory
 
 
 class ResultFileError(Exception):
@@ -44,7 +48,7 @@ class Results:
     units : dict of str -> str
         Units of every series.
     cycles : dict of str -> ndarray, or None
-        Per-cycle table (fields `analysis.schema.CYCLE_FIELDS`), None if the file has none.
+        Per-cycle table (fields `pdem.format.schema.CYCLE_FIELDS`), None if the file has none.
     """
 
     path: Path
@@ -59,28 +63,64 @@ class Results:
         return self.attrs["kind"]
 
 
-def read_results(path, required=REQUIRED_SERIES) -> Results:
+def results_file(run_or_file) -> Path:
+    """The results file of a run: ``RUN/results.h5`` for a directory, the path itself otherwise."""
+    path = Path(run_or_file)
+    if path.is_dir():
+        inner = path / RESULTS_NAME
+        if not inner.is_file():
+            raise ResultFileError(path, f"run directory without {RESULTS_NAME}")
+        return inner
+    return path
+
+
+class open_results:
+    """Context: a results file opened read-only; a missing, non-HDF5 or damaged file (also one
+    that fails while read) raises a one-line `ResultFileError`."""
+
+    def __init__(self, path):
+        self.path = Path(path)
+
+    def __enter__(self) -> h5py.File:
+        if not self.path.is_file():
+            raise ResultFileError(self.path, "no such file")
+        if not h5py.is_hdf5(self.path):
+            raise ResultFileError(self.path, "not an HDF5 file")
+        try:
+            self.file = h5py.File(self.path, "r")
+        except OSError as err:
+            raise ResultFileError(self.path, f"unreadable HDF5 ({_first_line(err)})") from None
+        return self.file
+
+    def __exit__(self, exc_type, exc, tb):
+        self.file.close()
+        if isinstance(exc, OSError):  # h5py reports damaged files as OSError
+            raise ResultFileError(self.path, f"unreadable HDF5 ({_first_line(exc)})") from None
+        return False
+
+
+def read_results(path, required=REQUIRED_SERIES, lenient=False) -> Results | None:
     """Read and validate a results file.
 
     Parameters
     ----------
     path : str or Path
+        Results file or run directory (`results_file`).
     required : sequence of str
         Series that must be present (``time`` and ``step`` always are).
+    lenient : bool
+        Give None instead of raising for a file that is missing or not a valid result (e.g.
+        a run that stopped before writing one).
 
     Raises
     ------
     ResultFileError
         Missing file, not HDF5, not a pdem result, unsupported version, missing or malformed
-        datasets.
+        datasets (not with ``lenient``).
     """
-    path = Path(path)
-    if not path.is_file():
-        raise ResultFileError(path, "no such file")
-    if not h5py.is_hdf5(path):
-        raise ResultFileError(path, "not an HDF5 file")
     try:
-        with h5py.File(path, "r") as f:
+        path = results_file(path)
+        with open_results(path) as f:
             attrs = _read_root_attrs(path, f)
             scene = _decode_scene(path, attrs["scene"])
             required = tuple(dict.fromkeys((*REQUIRED_SERIES, *required)))
@@ -89,23 +129,41 @@ def read_results(path, required=REQUIRED_SERIES) -> Results:
             cycles = None
             if "cycles" in f:
                 cycles, _ = _read_group(path, f, "cycles", CYCLE_FIELDS, CYCLE_UNITS)
-    except OSError as err:  # h5py reports damaged files as OSError
-        raise ResultFileError(path, f"unreadable HDF5 ({_first_line(err)})") from None
-    _check_time(path, series["time"])
+        _check_time(path, series["time"])
+    except ResultFileError:
+        if lenient:
+            return None
+        raise
     return Results(path=path, attrs=attrs, scene=scene, series=series, units=units,
                    cycles=cycles)
 
 
+def read_series(path, required=REQUIRED_SERIES) -> dict:
+    """The ``/series`` of a file with the schema tag but no run attributes (``preparation.h5`` of a
+    staged run): name -> float64 array."""
+    with open_results(path) as f:
+        if _plain(f.attrs.get("schema")) != SCHEMA:
+            raise ResultFileError(path, "not a pdem result (root attribute 'schema' missing)")
+        series, _ = _read_group(path, f, "series", required, SERIES_UNITS)
+    return series
+
+
+def read_finite(path, names, min_samples=2) -> Results:
+    """Read a result whose series ``names`` must be present and finite, with at least
+    ``min_samples`` samples."""
+    results = read_results(path, required=names)
+    n = len(results.series["time"])
+    if n < min_samples:
+        raise ResultFileError(results.path, f"series has {n} sample(s), need at least {min_samples}")
+    for name in names:
+        if not np.all(np.isfinite(results.series[name])):
+            raise ResultFileError(results.path, f"/series/{name} contains non-finite values")
+    return results
+
+
 def read_box_test(path) -> Results:
     """Read a box-test result: the sleeper series must be present, finite and >= 2 samples."""
-    results = read_results(path, required=REQUIRED_SERIES + BOX_SERIES)
-    n = len(results.series["time"])
-    if n < 2:
-        raise ResultFileError(path, f"series has {n} sample(s), need at least 2")
-    for name in BOX_SERIES:
-        if not np.all(np.isfinite(results.series[name])):
-            raise ResultFileError(path, f"/series/{name} contains non-finite values")
-    return results
+    return read_finite(path, BOX_SERIES)
 
 
 def _read_root_attrs(path: Path, f: h5py.File) -> dict:
@@ -120,7 +178,7 @@ def _read_root_attrs(path: Path, f: h5py.File) -> dict:
     version = attrs["schema_version"]
     if not isinstance(version, int) or version > SCHEMA_VERSION or version < 1:
         raise ResultFileError(path, f"schema_version {version!r} not supported "
-                                    f"(this analysis reads 1..{SCHEMA_VERSION})")
+                                    f"(pdem.format reads 1..{SCHEMA_VERSION})")
     return attrs
 
 
@@ -146,23 +204,28 @@ def _read_group(path, f, group, required, known_units, kind=None):
         raise ResultFileError(path, f"dataset(s) missing: {names}{hint}")
     data, units = {}, {}
     for name, ds in g.items():
-        where = f"/{group}/{name}"
-        if not isinstance(ds, h5py.Dataset) or ds.ndim != 1:
-            raise ResultFileError(path, f"{where} is not a 1-D dataset")
-        if not np.issubdtype(ds.dtype, np.number):
-            raise ResultFileError(path, f"{where} is not numeric ({ds.dtype})")
-        if "units" not in ds.attrs:
-            raise ResultFileError(path, f"{where} has no 'units' attribute")
-        unit = _plain(ds.attrs["units"])
-        if name in known_units and unit != known_units[name]:
-            raise ResultFileError(path, f"{where} is in {unit!r}, expected {known_units[name]!r}")
+        units[name] = checked_units(path, ds, f"/{group}/{name}", 1, known_units.get(name))
         data[name] = np.asarray(ds[()], dtype=np.float64)
-        units[name] = unit
     lengths = {name: len(v) for name, v in data.items()}
     if len(set(lengths.values())) > 1:
         detail = ", ".join(f"{k}={v}" for k, v in lengths.items())
         raise ResultFileError(path, f"/{group} datasets differ in length ({detail})")
     return data, units
+
+
+def checked_units(path, ds, where, ndim, expected=None) -> str:
+    """The ``units`` attribute of ``ds``, which must be a numeric dataset of rank ``ndim`` (and
+    in the ``expected`` units, if given)."""
+    if not isinstance(ds, h5py.Dataset) or ds.ndim != ndim:
+        raise ResultFileError(path, f"{where} is not a {ndim}-D dataset")
+    if not np.issubdtype(ds.dtype, np.number):
+        raise ResultFileError(path, f"{where} is not numeric ({ds.dtype})")
+    if "units" not in ds.attrs:
+        raise ResultFileError(path, f"{where} has no 'units' attribute")
+    unit = _plain(ds.attrs["units"])
+    if expected is not None and unit != expected:
+        raise ResultFileError(path, f"{where} is in {unit!r}, expected {expected!r}")
+    return unit
 
 
 def _check_time(path, time: np.ndarray) -> None:

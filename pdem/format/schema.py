@@ -1,8 +1,9 @@
 """The pdem results file format (HDF5), version 1, and a writer for it.
 
-This module owns the format: names, units and the writer `write_results`. pdem may use the
-writer to produce results; tests use it to make synthetic files. It imports only numpy and
-h5py (never pdem, numba, mpi4py or matplotlib).
+This module owns the format: names, units and the writers (`write_results` and those of the
+optional groups). pdem's driver and scenes write their results with them, `pdem.format.read`
+reads them back for `analysis`, and tests use them to make synthetic files. It imports only
+numpy and h5py (nothing else of pdem, never analysis, numba, mpi4py or matplotlib).
 
 Layout
 ------
@@ -136,7 +137,7 @@ CYCLE_OPTIONAL_UNITS = {"load_max": "N", "load_min": "N", "step": "-", "settleme
                         "settlement_max": "m", "force_bottom_peak": "N", "force_side_peak": "N",
                         "base_passed_end": "-"}
 
-# What pdem's runs write (pdem's driver imports these; the engine never imports analysis):
+# What pdem's runs write (the driver and the scenes import these):
 # a plain run's energies are those of `pdem.diagnostics.energy`: kinetic_energy is translational +
 # rotational, potential_energy = -sum m g.x (zero at the origin), total_energy = kinetic +
 # potential + elastic; max_overlap_ratio is the largest overlap over the smaller radius [-].

@@ -1,41 +1,27 @@
 """Readers of the optional result groups: fragments, blast parameters, track, force distributions.
 
-This module owns the validation and reading of the groups `analysis.schema` adds to the version 1
-format (``/fragments``, ``/blast``, ``/track``, ``/passages``, ``/forces``) and `results_file`
-(a run directory or a file -> the results file). The root attributes and ``/series`` are read and
-version-checked by `analysis.io.read_results` first. Everything comes back as numpy arrays in SI
-units ([s], [m], [N], [kg], [Pa]); a file that lacks a group or has a malformed one raises
-`analysis.io.ResultFileError` with one line naming the file and the problem. Imports numpy and
-h5py only.
+This module owns the validation and reading of the groups `pdem.format.schema` adds to the
+version 1 format (``/fragments``, ``/blast``, ``/track``, ``/passages``, ``/forces``). The root
+attributes and ``/series`` are read and version-checked by `pdem.format.read.read_results` first,
+and the file is opened by `pdem.format.read.open_results`. Everything comes back as numpy arrays
+in SI units ([s], [m], [N], [kg], [Pa]); a file that lacks a group or has a malformed one raises
+`pdem.format.read.ResultFileError` with one line naming the file and the problem. Imports numpy
+and h5py only.
 """
 
 from __future__ import annotations
 
 import json
 from dataclasses import dataclass
-from pathlib import Path
 
 import h5py
 import numpy as np
 
-from .io import ResultFileError, Results, _plain, read_results
+from .read import (ResultFileError, Results, _plain, checked_units, open_results, read_finite, read_results,
+                   results_file)
 from .schema import (BLAST, BLAST_ATTR_UNITS, BLAST_SERIES, FORCE_UNITS, FORCES,
                      FRAGMENT_REQUIRED, FRAGMENT_UNITS, FRAGMENTS, FRAGMENTS_ATTR_UNITS,
                      PASSAGE_REQUIRED, PASSAGE_UNITS, PASSAGES, TRACK, TRACK_UNITS)
-
-RESULTS_NAME = "results.h5"  # the results file of a run directory
-
-
-def results_file(run_or_file) -> Path:
-    """The results file of a run: ``RUN/results.h5`` for a directory, the path itself otherwise."""
-    path = Path(run_or_file)
-    if path.is_dir():
-        inner = path / RESULTS_NAME
-        if not inner.is_file():
-            raise ResultFileError(path, f"run directory without {RESULTS_NAME}")
-        return inner
-    return path
-
 
 @dataclass(frozen=True)
 class FragmentRecord:
@@ -140,7 +126,7 @@ def read_fragments(path) -> Fragments:
     """Read and validate the ``/fragments`` records of a results file (at least one)."""
     path = results_file(path)
     results = read_results(path)
-    with _open(path) as f:
+    with open_results(path) as f:
         if FRAGMENTS not in f or not isinstance(f[FRAGMENTS], h5py.Group):
             raise ResultFileError(path, f"group /{FRAGMENTS} missing (no fragment records; "
                                         f"kind is {results.kind!r})")
@@ -177,14 +163,8 @@ def read_fragments(path) -> Fragments:
 def read_blast(path) -> tuple[Results, BlastParameters]:
     """Read a kind "blast" result: its series (finite, >= 2 samples) and ``/blast``."""
     path = results_file(path)
-    results = read_results(path, required=BLAST_SERIES)
-    n = len(results.series["time"])
-    if n < 2:
-        raise ResultFileError(path, f"series has {n} sample(s), need at least 2")
-    for name in BLAST_SERIES:
-        if not np.all(np.isfinite(results.series[name])):
-            raise ResultFileError(path, f"/series/{name} contains non-finite values")
-    with _open(path) as f:
+    results = read_finite(path, BLAST_SERIES)
+    with open_results(path) as f:
         if BLAST not in f or not isinstance(f[BLAST], h5py.Group):
             raise ResultFileError(path, f"group /{BLAST} missing (kind is {results.kind!r})")
         g = f[BLAST]
@@ -199,7 +179,7 @@ def read_track(path) -> TrackRecord:
     path = results_file(path)
     results = read_results(path)
     n_samples = len(results.series["time"])
-    with _open(path) as f:
+    with open_results(path) as f:
         for group in (TRACK, PASSAGES):
             if group not in f or not isinstance(f[group], h5py.Group):
                 raise ResultFileError(path, f"group /{group} missing (kind is {results.kind!r})")
@@ -275,26 +255,6 @@ def _read_forces(path, f, n_sleepers) -> dict:
     return {r.label: r for r in records}
 
 
-class _open:
-    """h5py.File opened read-only; HDF5 errors become a one-line ResultFileError."""
-
-    def __init__(self, path):
-        self.path = Path(path)
-
-    def __enter__(self):
-        try:
-            self.file = h5py.File(self.path, "r")
-        except OSError as err:
-            raise ResultFileError(self.path, f"unreadable HDF5 ({_first_line(err)})") from None
-        return self.file
-
-    def __exit__(self, exc_type, exc, tb):
-        self.file.close()
-        if isinstance(exc, OSError):
-            raise ResultFileError(self.path, f"unreadable HDF5 ({_first_line(exc)})") from None
-        return False
-
-
 def _datasets(path, g, where, required, known_units, ndims=None, same_length=False) -> dict:
     """Numeric datasets of a group with checked units and rank (1-D unless `ndims` says);
     with `same_length` all of equal length. Names outside `known_units` are ignored (a newer
@@ -307,18 +267,8 @@ def _datasets(path, g, where, required, known_units, ndims=None, same_length=Fal
     for name, units in known_units.items():
         if name not in g:
             continue
-        ds, at = g[name], f"{where}/{name}"
-        ndim = (ndims or {}).get(name, 1)
-        if not isinstance(ds, h5py.Dataset) or ds.ndim != ndim:
-            raise ResultFileError(path, f"{at} is not a {ndim}-D dataset")
-        if not np.issubdtype(ds.dtype, np.number):
-            raise ResultFileError(path, f"{at} is not numeric ({ds.dtype})")
-        if "units" not in ds.attrs:
-            raise ResultFileError(path, f"{at} has no 'units' attribute")
-        unit = _plain(ds.attrs["units"])
-        if unit != units:
-            raise ResultFileError(path, f"{at} is in {unit!r}, expected {units!r}")
-        data[name] = ds[()]
+        checked_units(path, g[name], f"{where}/{name}", (ndims or {}).get(name, 1), units)
+        data[name] = g[name][()]
         if same_length:
             if length is not None and len(data[name]) != length[1]:
                 raise ResultFileError(path, f"{where} datasets differ in length "
@@ -366,7 +316,3 @@ def _check_units_attr(path, g, expected: dict) -> None:
 def _as_float(values):
     return None if values is None else np.asarray(values, dtype=np.float64)
 
-
-def _first_line(err: Exception) -> str:
-    text = str(err).strip()
-    return text.splitlines()[0] if text else type(err).__name__

@@ -1,0 +1,154 @@
+"""``python -m analysis summary RUN``: the post-processing of a run (a plain scene, or a staged one:
+box test, oedometer, blast, track), launched by ``pdem run`` after a successful run.
+
+This module owns the run's summary: it reads the run's account (``RUN/run_info.json``,
+`pdem.format.run`: what only the run knows) and its results, and writes
+
+- ``RUN/preparation.png`` (`analysis.figures.plot_preparation`) if the run prepared a bed;
+- ``RUN/results.png`` for a plain scene (`analysis.figures.plot_run_series`);
+- ``RUN/analysis/``: the analysis of the run's kind (``summary`` of run_info.json): box test
+  (`analysis.summary.run_box`: loops, settlement, stiffness, summary.txt/.json), oedometer
+  (`analysis.oedometer`, with the grading), blast (`analysis.blast`, every plate), track
+  (`analysis.track`, after traffic);
+- ``RUN/summary.txt``: title, ranks, wall time [s], what the run tells of itself, the stage table
+  of a staged run (end time [s], steps, spheres, unbalanced force ratio [-], bed top [m], the
+  scene's own columns, wall time [s]), the
+  run's notes, the table of its kind (cycles [mm], [N]; the oedometer report; impulse per plate
+  [MPa s]; passages [mm]) and the timing table; it is also printed.
+
+A failing analysis (bad results) is reported in summary.txt and on stderr; the rest is written.
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+from pdem.format.groups import read_blast, read_track
+from pdem.format.read import ResultFileError, read_results
+from pdem.format.run import RUN_INFO, read_run_info
+
+from .blast import analyse_blast, blast_dict, write_blast
+from .figures import plot_preparation, plot_run_series
+from .oedometer import run_oedometer
+from .summary import run_box
+from .track import run_track
+
+MM = 1e3
+# stage table: the columns every staged run has (key, label, format); the scene adds its own
+STAGE_COLUMNS = (("t_end", "t_end [s]", ".6g"), ("step_end", "steps", "d"), ("spheres", "spheres", "d"),
+                 ("unbalanced_force", "unbalanced", ".3g"), ("bed_top", "bed top [m]", ".5g"))
+
+
+def summarize(run) -> list[Path]:
+    """Write the summary of the run directory ``run``; returns the written files."""
+    run = Path(run)
+    info = read_run_info(run)
+    if info is None:
+        raise ValueError(f"no {RUN_INFO}: not a complete run")
+    written = []
+    prep = info.get("preparation")
+    if prep and (run / "preparation.h5").exists():
+        try:
+            written.append(plot_preparation(run / "preparation.h5", run / "preparation.png", prep["stages"],
+                                            prep["body"]))
+        except (ResultFileError, KeyError, ValueError) as err:  # a run that loaded a prepared bed has few rows
+            print(f"no preparation plot: {_one_line(err)}", flush=True)
+    try:
+        kind_lines, files = KINDS[info["summary"]](run, info)
+    except (ResultFileError, ValueError, OSError) as err:
+        kind_lines, files = [f"analysis failed: {_one_line(err)}"], []
+        print(f"python -m analysis summary: error: {_one_line(err)}", file=sys.stderr, flush=True)
+    sections = [[f"{info['title']}: {info['scene_file']}", f"ranks: {info['ranks']}",
+                 f"wall time: {info['wall_s']:.1f} s", *info["about"]],
+                stage_table(info["stages"], info["stage_columns"]) if info["stages"] else [],
+                info["notes"], kind_lines, [info["timing"]]]
+    text = "\n\n".join("\n".join(s) for s in sections if s)
+    (run / "summary.txt").write_text(text + "\n")
+    print(text, flush=True)
+    return written + files + [run / "summary.txt"]
+
+
+def stage_table(rows, extra_columns) -> list[str]:
+    """One line per stage: its name, `STAGE_COLUMNS`, the scene's ``extra_columns`` and the wall
+    time; a missing or null entry is shown as "-"."""
+    columns = [*STAGE_COLUMNS, *extra_columns, ("wall_s", "wall [s]", ".1f")]
+    name_width = max([8] + [len(r["stage"]) for r in rows])
+    widths = [max(len(label), 9) for _, label, _ in columns]
+    lines = [f"{'stage':<{name_width}} " + " ".join(f"{label:>{w}}" for (_, label, _), w in zip(columns, widths))]
+    for r in rows:
+        cells = [("-" if r.get(key) is None else format(r[key], fmt)) for key, _, fmt in columns]
+        lines.append(f"{r['stage']:<{name_width}} " + " ".join(f"{c:>{w}}" for c, w in zip(cells, widths)))
+    return lines
+
+
+def scene(run, info):
+    """A plain scene: the plot of its series."""
+    return [], [plot_run_series(run / "results.h5", run / "results.png")]
+
+
+def box_test(run, info):
+    """The cycles table and the box-test analysis."""
+    cycles = read_results(run / "results.h5").cycles
+    lines = ["cycle  settlement start/peak/end [mm]     ballast force min/max [N]"]
+    for k in range(0 if cycles is None else len(cycles["cycle"])):
+        lines.append(f"{int(cycles['cycle'][k]):5d}  {MM * cycles['settlement_start'][k]:9.3f} "
+                     f"{MM * cycles['settlement_peak'][k]:9.3f} {MM * cycles['settlement_end'][k]:9.3f}   "
+                     f"{cycles['force_min'][k]:10.1f} {cycles['force_peak'][k]:10.1f}")
+    return lines, run_box(run / "results.h5", run / "analysis")
+
+
+def oedometer(run, info):
+    """The oedometer analysis (with the grading) and its report."""
+    written = run_oedometer(run, run / "analysis", info["intact_members"])
+    return [(run / "analysis" / "oedometer.txt").read_text().rstrip()], written
+
+
+def blast(run, info):
+    """The blast analysis of every plate and the impulse table against the paper."""
+    plates = [(mass, run / d / "results.h5") for mass, d in info["plates"]]
+    analyses = [analyse_blast(*read_blast(path)) for _, path in plates]
+    written = write_blast([p for _, p in plates], analyses, run / "analysis") if plates else []
+    lines = ["plate [kg/m^2]   I_s [MPa s]   I_s/I_in   I_s,dyn/I_in   peak sigma_0 [MPa]   paper I_s   "
+             "paper I_s/I_in"]
+    for (mass, _), a in zip(plates, analyses):
+        r = blast_dict(a)
+        paper = r["paper"] or {}
+        lines.append(f"{mass:14g}   {r['impulse'] * 1e-6:11.4e}   {r['amplification']:8.3f}   "
+                     f"{r['amplification_dynamic']:12.3f}   {r['peak_stress'] * 1e-6:18.3f}   "
+                     f"{paper.get('impulse', float('nan')) * 1e-6:9.3e}   "
+                     f"{paper.get('amplification', float('nan')):14.2f}")
+    return lines, written
+
+
+def track(run, info):
+    """After traffic: the passages table and the track analysis."""
+    if not info["traffic"]:
+        return [], []
+    p = read_track(run / "results.h5").passages
+    lines = ["passage  t_end [s]  settlement peak mean/max [mm]  permanent mean/min/max [mm]  gap max [mm]"]
+    for i in range(len(p["passage"])):
+        peak, permanent = p["settlement_peak"][i], p["settlement_permanent"][i]
+        gap = f"{MM * p['gap'][i].max():9.3f}" if "gap" in p else "-"
+        lines.append(f"{int(p['passage'][i]):7d} {p['t_end'][i]:10.4f}  {MM * peak.mean():9.3f} {MM * peak.max():9.3f}"
+                     f"            {MM * permanent.mean():8.3f} {MM * permanent.min():8.3f} "
+                     f"{MM * permanent.max():8.3f}   {gap}")
+    return lines, run_track(run, run / "analysis")
+
+
+KINDS = {"scene": scene, "box_test": box_test, "oedometer": oedometer, "blast": blast, "track": track}
+
+
+def add_parser(sub) -> None:
+    """The ``summary`` subcommand of ``python -m analysis``."""
+    p = sub.add_parser(
+        "summary", help="a staged run's summary.txt, preparation.png and analysis/ (from its run_info.json)",
+        description="Write RUN/summary.txt and the plots and analysis of a complete run: results.png of a "
+                    "plain scene; preparation.png and analysis/ of a box test, oedometer, blast or track run "
+                    "(pdem run does this after a successful run).")
+    p.add_argument("results", type=Path, metavar="RUN", help="run directory (with run_info.json)")
+    p.set_defaults(run=lambda a: summarize(a.results))
+
+
+def _one_line(message) -> str:
+    return " ".join(str(message).split())
