@@ -1,0 +1,2 @@
+"""Boundaries: walls (infinite planes), facets (triangles) and the force programs of loaded bodies.
+"""
