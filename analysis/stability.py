@@ -20,7 +20,7 @@ writing its report.
 
 Energy balance of a run without external work (root attribute ``external_work`` = 0 of the
 results file, /series ``total_energy`` [J]: kinetic + rotational + potential + elastic,
-synchronised to the positions as `pdem.diagnostics.energy` does): the total mechanical energy E
+synchronised to the positions as `pdem.checks.diagnostics.energy` does): the total mechanical energy E
 can only fall (damping, friction). Its largest rise above its previous minimum,
 G = max_t (E(t) - min_{s<=t} E(s)), is compared with the largest kinetic + elastic energy of the
 run, S = max_t (K + U_el): the balance holds if G <= tolerance * S (default 10 %). A stable

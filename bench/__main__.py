@@ -8,7 +8,7 @@ case, n_particles, ranks, threads, steps, wall_s, particle_steps_per_s, contacts
 bytes_per_particle, and the time split neighbours / contacts / integration / communication.
 
 Clump bed (``clump_bed_N``): N member spheres in N/8 rigid 8-sphere clumps (member r = 8.5 mm,
-SPEC 2.3; `pdem.clump_generators.ballast8`, randomly turned, settled once and cached), the same
+SPEC 2.3; `pdem.bodies.clump_generators.ballast8`, randomly turned, settled once and cached), the same
 materials, damping and walls; ``particle_steps_per_s`` counts member-steps, and
 ``per_member_ratio`` is that over the sphere bed of the same N and threads.
 
@@ -47,7 +47,7 @@ CLUMP_MEMBER_R = 0.0085
 
 def make_scene(pos=None, radius=None, n=None, seed=7):
     from pdem import Scene
-    from pdem.generators import loose_cloud
+    from pdem.build.generators import loose_cloud
 
     n = len(radius) if radius is not None else n
     # base of the box scaled so that the settled bed is about 0.6 m high
@@ -126,7 +126,7 @@ def make_clump_scene(grains=None, n_members=None, seed=7):
     """The clump bed: 8-sphere clumps (member r = 8.5 mm, SPEC 2.3; the materials, damping and
     walls of the sphere bed) in a box scaled so that the settled bed is about 0.6 m high."""
     from pdem import Scene
-    from pdem.clump_generators import ballast8, grain_cloud
+    from pdem.bodies.clump_generators import ballast8, grain_cloud
 
     n_clumps = len(grains) if grains is not None else n_members // 8
     side_y = max(0.3, (n_clumps * 4.5e-5 / 0.6 / 2.0) ** 0.5)

@@ -1,4 +1,4 @@
-"""Cost of the runaway guard (`pdem.guard`): the same dense bed stepped by two source trees,
+"""Cost of the runaway guard (`pdem.checks.guard`): the same dense bed stepped by two source trees,
 alternating, one numba thread.
 
     python bench/guard_overhead.py BEFORE_SRC AFTER_SRC [--n 50000] [--steps 300] [--rounds 3]
@@ -14,7 +14,7 @@ force loops alone (`Simulation.compute_forces`, 20 calls each), and the medians 
 
 ``--pass-only``: the one pass that does more work, timed alone in this process: the rebuild
 test's loop over the bodies before (largest displacement since the rebuild) and after
-(`pdem.neighbors.max_motion`: also the largest |v|/r, reading v and r too), serial, n bodies;
+(`pdem.contact.neighbors.max_motion`: also the largest |v|/r, reading v and r too), serial, n bodies;
 median over 10 rounds of the fastest of 5 × 50 calls.
 """
 import argparse
@@ -76,10 +76,10 @@ def pass_only(n):
     import numpy as np
     from numba import njit
 
-    from pdem.neighbors import max_motion
+    from pdem.contact.neighbors import max_motion
 
     @njit
-    def before(pos, pos_at_rebuild, n):  # pdem.neighbors.max_displacement before the guard
+    def before(pos, pos_at_rebuild, n):  # pdem.contact.neighbors.max_displacement before the guard
         m = 0.0
         for k in range(n):
             dx = pos[k, 0] - pos_at_rebuild[k, 0]

@@ -11,7 +11,8 @@ import time
 import numba
 
 from bench.__main__ import bed, make_scene
-from pdem import forces, integrator
+from pdem.contact import forces
+from pdem import integrator
 
 
 def timeit(f, reps=200):

@@ -84,7 +84,7 @@ def measure_packing(g, k, reps=50, path="numba", repeats=5):
 
     from pdem.parallel.packing import GhostBuffers, field_views, pack_fields
     from pdem.parallel.slab_domain import pack_rows, unpack_rows
-    from pdem.state import FIELDS, Particles
+    from pdem.bodies.state import FIELDS, Particles
 
     if path not in ("numba", "numpy"):
         raise ValueError(f"path must be 'numba' or 'numpy', got {path!r}")

@@ -18,7 +18,7 @@ import sys
 import numpy as np
 
 from pdem import Scene
-from pdem.generators import loose_cloud
+from pdem.build.generators import loose_cloud
 
 
 def main(argv=None):

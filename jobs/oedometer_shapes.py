@@ -2,7 +2,7 @@
 
 One command runs the four grain shapes of table 4.11 — sphere (24, 24, 24), ellipsoid
 (24, 30, 19), "cylinder" (18, 18, 40), "cake" (10, 37, 37) mm, all ellipsoids filled with
-spheres on a grid (`pdem.clump_generators`) — in the oedometer, then tabulates and plots the
+spheres on a grid (`pdem.bodies.clump_generators`) — in the oedometer, then tabulates and plots the
 loading and unloading stiffness of the platen record (`analysis.oedometer`):
 
     python jobs/oedometer_shapes.py --out runs/oedometer_shapes [--ranks 2] [--scale 0.4] [--grain-scale 0.5]
@@ -30,7 +30,7 @@ sys.path.insert(0, str(ROOT))
 
 from analysis.oedometer import analyse, read_oedometer  # noqa: E402
 from pdem.campaign.tomlw import dumps  # noqa: E402
-from pdem.clump_generators import THESIS_SHAPES  # noqa: E402
+from pdem.bodies.clump_generators import THESIS_SHAPES  # noqa: E402
 
 SHAPES = ("sphere", "ellipsoid", "cylinder", "cake")
 

@@ -28,11 +28,11 @@ _RANK_VARS = ("PMI_RANK", "OMPI_COMM_WORLD_RANK", "MV2_COMM_WORLD_RANK", "SLURM_
 def run_file(path, out, steps=None, fresh=False, comm=None):
     """Run the scene file ``path`` into ``out`` on this process's ranks; returns the exit status
     (exceptions propagate: `pdem.driver.failures.run_guarded` turns them into statuses)."""
-    from .config import load_toml
+    from .build.config import load_toml
     from .driver.plain import run_scene_file
     from .parallel.comm import get_comm
     from .scenes import find
-    from .validate import number
+    from .build.validate import number
 
     comm = get_comm(comm)
     if steps is not None:

@@ -9,7 +9,7 @@ undamped one. Units: SI (m, s, kg, N).
 from numba import njit, prange
 
 from .kernels import kernel
-from .state import DOF_ALL
+from .bodies.state import DOF_ALL
 
 
 @njit(inline="always", cache=True)

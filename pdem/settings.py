@@ -1,5 +1,5 @@
 """The settings of a simulation (a scene file's ``[simulation]`` table): one frozen record,
-checked and made once by `pdem.scene.Scene`, handed to `pdem.simulation.Simulation`.
+checked and made once by `pdem.build.scene.Scene`, handed to `pdem.simulation.Simulation`.
 
 - ``dt``: `AUTO` (the stable step re-estimated every ``dt_interval`` steps, `pdem.timestep`) or
   a fixed Δt > 0 [s]; ``dt_safety`` (0, 1] the safety factor on the stiffness estimate,
@@ -22,7 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .errors import InputError
-from .validate import boolean, number, vectors
+from .build.validate import boolean, number, vectors
 
 AUTO = "auto"  # dt re-estimated from the stiffnesses present (the one sentinel of dt)
 

@@ -3,14 +3,14 @@
 One step: (rebuild neighbours and ghosts if some body moved more than skin/2) → contact forces of
 every contact kind the scene has (`Simulation.kinds`: sphere pairs, then walls, facets, boxes;
 loops generated from the geometry and the scene's law, `pdem.contact`) → sums per body in a
-fixed order (`pdem.forces`; rigid clumps then sum their members', `pdem.clumps`) → leapfrog
+fixed order (`pdem.contact.forces`; rigid clumps then sum their members', `pdem.bodies.clumps`) → leapfrog
 (damped only if the scene asks; clumps by Yade's aspherical integrator, which places their
 members) → move walls, facets and boxes → ghost update. Δt is fixed or re-estimated every
 `dt_interval` steps (`pdem.timestep`); every `check_interval` steps the state is checked for
-blow-up (`pdem.diagnostics`), and every step for runaway bodies and overlaps (`pdem.guard`,
+blow-up (`pdem.checks.diagnostics`), and every step for runaway bodies and overlaps (`pdem.checks.guard`,
 folded into the rebuild test). Global
 reductions go through the domain's communicator (exact sums, so they do not depend on the rank
-count). Checkpoint tables: `pdem.checkpoint_state`.
+count). Checkpoint tables: `pdem.io.checkpoint_state`.
 
 Read API (owned bodies of this rank; every method is local unless it says collective):
 `bodies()`, `body(gid)`, `clumps_table()`, `contacts()`, `wall_index(name)`, `facet_index(name)`,
@@ -20,13 +20,16 @@ import time as _time
 
 import numpy as np
 
-from . import checkpoint_state, diagnostics, integrator, neighbors, timestep
-from .clumps import Clumps
+from .io import checkpoint_state
+from .checks import diagnostics
+from . import integrator, timestep
+from .contact import neighbors
+from .bodies.clumps import Clumps
 from .contact import get_law
 from .contact.kinds import box_kinds, make_kinds
 from .errors import InputError
-from .guard import Guard
-from .state import DOF_ALL, FIELDS
+from .checks.guard import Guard
+from .bodies.state import DOF_ALL, FIELDS
 
 TIMERS = ("neighbours", "contacts", "integration", "communication", "output", "other")
 
@@ -50,7 +53,7 @@ class Timers:
 
 
 class Simulation:
-    """Built by `pdem.scene.Scene.build`; run with `run(n_steps)`."""
+    """Built by `pdem.build.scene.Scene.build`; run with `run(n_steps)`."""
 
     def __init__(self, *, particles, materials, walls, facets, boxes, settings, skin, domain, spec, guard=None,
                  clumps=None, bonds=None):
@@ -61,7 +64,7 @@ class Simulation:
         self.props = materials.props()  # law properties per material (the Ip2 inputs)
         self.walls = walls
         self.facets = facets
-        # rigid boxes (pdem.boxes): replicated, integrated from the exact global sum of their contacts
+        # rigid boxes (pdem.bodies.boxes): replicated, integrated from the exact global sum of their contacts
         self.boxes = boxes if len(boxes) else None
         # the state a stage may change (shaking, settling, a sleeper pressed in): starts as set
         self.gravity = np.asarray(settings.gravity, np.float64)
@@ -82,11 +85,11 @@ class Simulation:
         self.last_dt = None  # Δt of the last step taken (sim.dt may already be the next one's) [s]
         self.kinds = make_kinds(self.law, walls, facets, boxes)
         self.box_kinds = box_kinds(self.kinds)  # the kinds whose forces act on the boxes
-        # rigid clumps owned here (pdem.clumps), None in a scene without clumps
+        # rigid clumps owned here (pdem.bodies.clumps), None in a scene without clumps
         self.clumps = clumps
         if clumps is not None:
             clumps.attach(particles)
-        if bonds is not None:  # bonds of breakable clumps (pdem.bonds): contacts made before the first step
+        if bonds is not None:  # bonds of breakable clumps (pdem.bodies.bonds): contacts made before the first step
             key, params, history = bonds
             self.kind("sphere_sphere").contacts.add_carried(key, np.ones(len(key), np.int8), params, history)
         # a box's load and weight do external work; the flag must be the same on every rank
@@ -127,7 +130,7 @@ class Simulation:
 
     def _needs_rebuild(self):
         """The rebuild test (some body moved more than skin/2), with the runaway guard's step
-        displacement and overlap in the same reduction (`pdem.guard.Guard.check_step`)."""
+        displacement and overlap in the same reduction (`pdem.checks.guard.Guard.check_step`)."""
         p = self.particles
         moved, rate = neighbors.max_motion(p.pos, p.pos_at_rebuild, p.vel, p.radius, p.n_local)
         overlap = max(kind.worst_overlap for kind in self.kinds)

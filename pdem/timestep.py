@@ -14,7 +14,7 @@
   viscous damping raises them by 1/(sqrt(1 + η²) − η)², which turns 2/ω into the damped
   critical step (2/ω)(sqrt(1 + η²) − η), and adds its rolling stiffness), the normal from the
   contact's history.
-A rigid clump adds its own estimate (`pdem.clumps.clump_dt`): M/K_t and I_min/K_r with every
+A rigid clump adds its own estimate (`pdem.bodies.clumps.clump_dt`): M/K_t and I_min/K_r with every
 member contact's k_n + k_s at its lever from the clump centre (the members' own estimate alone
 misses the longer levers). Walls, facets, boxes and stiff materials (steel at 10 E) are all in the sums (every contact
 kind of `Simulation.kinds`, in the order forces are summed). The simulation never lets Δt
@@ -26,9 +26,9 @@ from math import pi, sqrt
 import numpy as np
 from numba import njit
 
-from .clumps import add_member_stiffness
+from .bodies.clumps import add_member_stiffness
 from .settings import AUTO
-from .state import DOF_ALL
+from .bodies.state import DOF_ALL
 
 
 @njit(cache=True)
@@ -131,7 +131,7 @@ def update_dt(sim, force=False, carried=None):
 def stable_dt(sim):
     """The Δt that dt = "auto" takes in the present state [s] (collective): min(safety·Δt_k, Δt_p),
     or pwave_factor·Δt_p before any contact. Also names how far a fixed Δt is above it when a
-    run with one blows up (`pdem.diagnostics.dt_cause`)."""
+    run with one blows up (`pdem.checks.diagnostics.dt_cause`)."""
     p = sim.particles
     k_dt = contact_dt(sim)
     for kind in sim.box_kinds:  # the box's own mass–spring step, from the global sum of its contacts

@@ -1,7 +1,7 @@
 """Test-suite plumbing: the ``one_line_error`` check, the ``jit`` marker's skip, and running pytest
 on several MPI ranks.
 
-Tests marked ``jit`` need numba's compiled kernels: the contact carry's hash (``pdem.contacts``)
+Tests marked ``jit`` need numba's compiled kernels: the contact carry's hash (``pdem.contact.store``)
 multiplies int64 keys with wrap-around, which Python's integers do not do, so under
 ``NUMBA_DISABLE_JIT=1`` (``make test-nojit``) they are skipped.
 

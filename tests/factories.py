@@ -28,8 +28,8 @@ from pathlib import Path
 
 import numpy as np
 
-from pdem.clump_generators import ballast8, grain_cloud, shape_members
-from pdem.scene import Scene
+from pdem.bodies.clump_generators import ballast8, grain_cloud, shape_members
+from pdem.build.scene import Scene
 
 ROOT = Path(__file__).resolve().parents[1]
 OEDOMETER_CI_JOB = ROOT / "jobs" / "oedometer_ci.toml"

@@ -39,7 +39,7 @@ import numpy as np
 from numba import njit
 
 from ..errors import InputError
-from ..validate import number
+from ..build.validate import number
 
 
 @dataclass(frozen=True)

@@ -21,8 +21,8 @@ Added for the viscous and Hertz–Mindlin laws (issue 12):
   approach velocity (negative while approaching) that a dashpot needs; false keeps Yade's
   (linear law, bit for bit).
 - ``PAIR_KEYS`` and ``combine(key, a, b)``: material keys that may be set per pair of materials
-  (`pdem.materials.MaterialTable.set_pair`; unset pairs get ``combine``); ``ip2`` reads them from
-  the pair columns of ``props`` (`pdem.materials.pair_column`).
+  (`pdem.build.materials.MaterialTable.set_pair`; unset pairs get ``combine``); ``ip2`` reads them from
+  the pair columns of ``props`` (`pdem.build.materials.pair_column`).
 - ``dt_stiffness(params, history, overlap) -> (kn, ks)``: what the automatic time step sees;
   a damped law raises its stiffness by 1/(sqrt(1+η²) − η)² (the damped critical step) and a
   rolling law adds its rolling stiffness (`pdem.timestep`).
@@ -38,7 +38,7 @@ contact point), ``STIFFNESS_PARAMS`` (the parameter columns proportional to ``ST
 for `Simulation.scale_stiffness` with ``rescale_existing``), ``HISTORY_NAMES`` (name -> history column, also reported by
 `Simulation.contacts`) and, for laws with bonds, ``bond_rows(props, mat1, mat2, r1, r2, pen,
 stress_free) -> (params, history)``, ``bond_strengths(props, mat) -> (c_N, c_T)`` and
-``intact(params, history) -> bool mask`` (`pdem.bonds`, `pdem.fragments`).
+``intact(params, history) -> bool mask`` (`pdem.bodies.bonds`, `pdem.bodies.fragments`).
 
 A law may build its ``ip2`` and ``force`` from the shared sub-models of
 `pdem.contact.submodels` (pair stiffness, frictional Ip2, shear spring, Coulomb cap, rolling

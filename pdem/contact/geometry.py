@@ -37,9 +37,9 @@ loop (`pdem.contact.loops`) calls; a geometry knows nothing of forces (that is t
     on the sphere (−f) and its torque.
 
 Boundary rows (``other_f``, ``other_i``, one row per wall, facet or box) are laid out by the
-containers: `pdem.walls.Walls` (f: position, velocity; i: axis, sense, material),
-`pdem.facets.Facets` (f: FACET_COLUMNS of geometry, velocity; i: material) and
-`pdem.boxes.Boxes` (f: centre, half extents, velocity; i: material).
+containers: `pdem.boundaries.walls.Walls` (f: position, velocity; i: axis, sense, material),
+`pdem.boundaries.facets.Facets` (f: FACET_COLUMNS of geometry, velocity; i: material) and
+`pdem.bodies.boxes.Boxes` (f: centre, half extents, velocity; i: material).
 
 Every 3-vector product follows Yade's Eigen evaluation order (`pdem.vec`), so results are
 bit-identical to Yade's. Imports numba and `pdem.vec` only.
@@ -252,7 +252,7 @@ class SphereWall:
 # ---------------------------------------------------------------------------- sphere–facet
 @njit(inline="always", cache=True)
 def _facet_contact(fresh, s, f, pos, radius, other_f, other_i):
-    """Face, edge and vertex contact of Ig2_Facet_Sphere_ScGeom (facet rows: `pdem.facets`:
+    """Face, edge and vertex contact of Ig2_Facet_Sphere_ScGeom (facet rows: `pdem.boundaries.facets`:
     centre c at 0, normal at 3, edge normals ne_k at 6 + 3k, icr at 15, vertex unit vectors
     vu_k at 16 + 3k, their lengths vl_k at 25 + k)."""
     g = other_f
@@ -425,7 +425,7 @@ class SphereBox:
 # ---------------------------------------------------------------------------- sphere–box member
 @njit(inline="always", cache=True)
 def _member_contact(fresh, s, m, pos, radius, other_f, other_i):
-    """Ig2_Sphere_Sphere_ScGeom with the member (row m of `pdem.boxes.BoxMembers`) as body 1."""
+    """Ig2_Sphere_Sphere_ScGeom with the member (row m of `pdem.bodies.boxes.BoxMembers`) as body 1."""
     return _two_spheres(fresh, pos[s, 0] - other_f[m, 0], pos[s, 1] - other_f[m, 1], pos[s, 2] - other_f[m, 2],
                         other_f[m, 6] + radius[s])
 
@@ -456,7 +456,7 @@ def _member_contact_velocity(s, m, nx, ny, nz, pen, pos, vel, angvel, radius, ot
 
 
 class SphereMember:
-    """A sphere on a member sphere of a rigid box (`pdem.boxes.BoxMembers`: the thesis's clump
+    """A sphere on a member sphere of a rigid box (`pdem.bodies.boxes.BoxMembers`: the thesis's clump
     sleeper): the sphere–sphere geometry and relative velocity with the member as body 1, moving
     with its box and never spinning; the row holds the force on the sphere."""
 

@@ -11,7 +11,7 @@ Per contact (i = body 1, j = body 2):
 - E* = 1/((1 − ν_i²)/E_i + (1 − ν_j²)/E_j), G* = 1/(2(2 − ν_i)(1 + ν_i)/E_i + 2(2 − ν_j)(1 + ν_j)/E_j),
   β = ln e / sqrt(ln² e + π²) (≤ 0), R* = r_i r_j/(r_i + r_j), m* = m_i m_j/(m_i + m_j); against a
   boundary (a half-space) R* = r and m* = m of the sphere. e, μ, μ_r are ``PAIR_KEYS``: set per
-  pair of materials (`pdem.materials.MaterialTable.set_pair`, LIGGGHTS's ``peratomtypepair``),
+  pair of materials (`pdem.build.materials.MaterialTable.set_pair`, LIGGGHTS's ``peratomtypepair``),
   otherwise the smaller of the two materials' values.
 - With overlap δ: S_n = 2E* sqrt(R*δ), S_t = 8G* sqrt(R*δ) (Mindlin's no-slip tangential
   stiffness), k_n = 4/3 E* sqrt(R*δ), γ_n = −2 sqrt(5/6) β sqrt(S_n m*), γ_t = −2 sqrt(5/6) β

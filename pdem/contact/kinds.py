@@ -3,19 +3,19 @@
 A kind binds a geometry (`pdem.contact.geometry`) to the bodies it concerns, its `ContactList`
 (candidate rows with parameters and history), its candidate search at neighbour rebuilds, its
 generated force loop (`pdem.contact.loops`, geometry × the scene's law) and the per-body sums
-(`pdem.forces`). Everything that walks over contacts (the step, the time step, diagnostics,
+(`pdem.contact.forces`). Everything that walks over contacts (the step, the time step, diagnostics,
 observables, migration between slabs, checkpoints) iterates `Simulation.kinds`, so a new kind is
 one class here and one line in `make_kinds`.
 
 Order of `make_kinds` (sphere pairs, walls, facets, boxes) is the order in which each body's
-force is summed: partners by gid, then walls, facets and boxes by index (`pdem.forces`).
+force is summed: partners by gid, then walls, facets and boxes by index (`pdem.contact.forces`).
 Checkpoint tables are named ``contacts/<kind name>``.
 """
 import numpy as np
 
-from .. import forces, neighbors
-from ..clumps import drop_same_clump
-from ..contacts import KEY_SHIFT_SPHERE, ContactList, index_pair_keys, sphere_pair_keys
+from . import forces, neighbors
+from ..bodies.clumps import drop_same_clump
+from .store import KEY_SHIFT_SPHERE, ContactList, index_pair_keys, sphere_pair_keys
 from .geometry import SphereBox, SphereFacet, SphereMember, SphereSphere, SphereWall
 from .loops import NORMAL_COLUMNS, make_pair_loop
 

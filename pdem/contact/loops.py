@@ -15,8 +15,8 @@ relative velocity (Yade's, with the ratcheting factor; or at the contact point w
 law with ``CONTACT_POINT_VELOCITY``), its normal part vn passed on and removed, Δu_s = v_t Δt →
 Law2 → outputs: the overlap per row; for a boundary the force and torque on the sphere per row;
 for a pair of particles, (f, torque on body 1) into body 1's *slot* and (−f, torque on body 2)
-into body 2's slot. A slot is a body's entry in its incidence list (`pdem.neighbors.
-build_incidence`, partners by gid; −1 for a ghost body), so the per-body sum (`pdem.forces`) reads
+into body 2's slot. A slot is a body's entry in its incidence list (`pdem.contact.neighbors.
+build_incidence`, partners by gid; −1 for a ghost body), so the per-body sum (`pdem.contact.forces`) reads
 its slots in order, contiguously, instead of gathering pair rows (2–2.5× faster at 50k).
 
 Two optional law constants change the loop (pruned at compile time): ``TENSILE`` (a law with
@@ -26,9 +26,9 @@ contact lives on this step (Yade's Law2 deletes the interaction and applies no f
 ``CONTACT_POINT_LEVER``: torques (cp − x1) × f on body 1 and −(cp − x2) × f on body 2 with the
 geometry's contact point (Law2_ScGeom6D_CohFrictPhys_CohesionMoment) instead of CundallStrack's
 (r − pen/2) n × f. Rows and slots are written only by their own row's iteration (race-free
-under ``prange``); `pdem.forces` sums them per body in a fixed order. The loop returns the
+under ``prange``); `pdem.contact.forces` sums them per body in a fixed order. The loop returns the
 largest overlap over the smaller radius of its contacts [-] (a max reduction: read by the
-runaway guard, `pdem.guard`, every step).
+runaway guard, `pdem.checks.guard`, every step).
 
 The geometry and law functions take scalars and at most plain arrays they index themselves:
 an inline helper that passed arrays on to further inline helpers cost ~20 atomic reference-count

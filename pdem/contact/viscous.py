@@ -12,7 +12,7 @@ Material keys: ``kn`` k_n [N/m], ``ks`` k_s [N/m], ``damping_ratio`` ζ [-] in [
 [-] (0: no rolling resistance). A pair of materials gets k = 2 k_a k_b/(k_a + k_b) for k_n, k_s
 and k_θ (a pair of equal materials gets the material's value; a plate or wall of the grains'
 stiffness gives the grains' contact stiffness), and for the ``PAIR_KEYS`` ζ (mean), μ and β
-(smaller) unless the pair is set (`pdem.materials.MaterialTable.set_pair`).
+(smaller) unless the pair is set (`pdem.build.materials.MaterialTable.set_pair`).
 
 Per contact, with m* = m1 m2/(m1 + m2) (m* = m of the sphere against a boundary) and
 r_min the smaller radius:

@@ -1,6 +1,6 @@
 """Fragment records in the results file: ``/fragments/<label>`` (`pdem.format.schema.write_fragments`).
 
-`FragmentRecorder` writes the fragments of the running simulation (`pdem.fragments.fragments`:
+`FragmentRecorder` writes the fragments of the running simulation (`pdem.bodies.fragments.fragments`:
 connected components over intact bonds and rigid clumps) on a schedule (every ``every`` steps,
 label ``fragment_label(step)``) or at named stages (`record(sim, "peak")`). A scene or a plain
 run (run.fragments_every) schedules it. Every rank calls it (the computation is collective);
@@ -15,7 +15,7 @@ import numpy as np
 from ..format.schema import fragment_label, write_fragments
 
 from ..errors import InputError
-from ..fragments import fragments
+from ..bodies.fragments import fragments
 
 
 class FragmentRecorder:

@@ -6,13 +6,13 @@ the rank count (exact sums, max/min reductions).
 - wall forces: total force of the spheres on each wall [N] (exact sums over contacts)
 - top of the bed: max over spheres of z + r [m]
 - the largest overlap of any real contact over the smaller radius of its pair [-]
-  (`pdem.diagnostics.max_overlap_ratio`, the guard's)
+  (`pdem.checks.diagnostics.max_overlap_ratio`, the guard's)
 - rigid boxes: force of the spheres on each box [N] (exact sums) and centre [m]; the force on a
   box's bottom face apart from the rest (side friction)
 """
 import numpy as np
 
-from ..diagnostics import free_bodies, max_overlap_ratio  # noqa: F401  (max_overlap_ratio: an observable)
+from ..checks.diagnostics import free_bodies, max_overlap_ratio  # noqa: F401  (max_overlap_ratio: an observable)
 
 
 def wall_forces(sim):

@@ -17,8 +17,8 @@ from pathlib import Path
 from ..format.schema import RUN_SERIES, fragment_label
 
 from ..version import __version__
-from ..config import run_settings, scene_from_dict
-from ..diagnostics import check_finite
+from ..build.config import run_settings, scene_from_dict
+from ..checks.diagnostics import check_finite
 from ..format.run import write_run_info
 from ..io.checkpoint import CheckpointError, read_checkpoint
 from ..io.snapshots import SnapshotWriter

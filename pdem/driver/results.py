@@ -11,7 +11,7 @@ import numpy as np
 
 from ..format import schema
 
-from ..diagnostics import check_finite
+from ..checks.diagnostics import check_finite
 from ..errors import InstabilityError
 
 from ..version import __version__

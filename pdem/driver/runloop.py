@@ -12,7 +12,7 @@ import sys
 import time as _time
 from pathlib import Path
 
-from ..diagnostics import check_finite
+from ..checks.diagnostics import check_finite
 from ..errors import InputError, InstabilityError
 from ..io.checkpoint import (
     CheckpointError,

@@ -24,7 +24,7 @@ e.g. the track section's prepared bed: preparation once, loading many), and a ru
 
 Table operations (`empty_tables`, `remove_above`, `append_bodies`, `next_free_gid`,
 `next_free_clump`, `clump_tables`, `append_tables`) work on the global tables of
-`pdem.checkpoint_state` and are pure functions. A stage with clumps declares them in its scene
+`pdem.io.checkpoint_state` and are pure functions. A stage with clumps declares them in its scene
 with `Scene.add_sphere_columns(tables["particles"])` and `Scene.add_clump_tables(tables["clumps"],
 tables["clump_members"])`; bonds travel in ``contacts/sphere_sphere``.
 """
@@ -36,16 +36,16 @@ from typing import Callable
 import numpy as np
 
 from ..version import __version__
-from ..checkpoint_state import restore_clock
-from ..config import run_settings
+from ..io.checkpoint_state import restore_clock
+from ..build.config import run_settings
 from ..contact import stiffness_keys
 from ..errors import InputError
 from ..format.run import write_run_info
 from ..io.checkpoint import CheckpointError, read_checkpoint
 from ..io.snapshots import SnapshotWriter
-from ..scene import sphere_columns
+from ..build.scene import sphere_columns
 from ..simulation import Timers
-from ..state import FIELDS
+from ..bodies.state import FIELDS
 from . import observables
 from .runloop import RunLoop, prepare_output, resume_point
 

@@ -138,7 +138,7 @@ CYCLE_OPTIONAL_UNITS = {"load_max": "N", "load_min": "N", "step": "-", "settleme
                         "base_passed_end": "-"}
 
 # What pdem's runs write (the driver and the scenes import these):
-# a plain run's energies are those of `pdem.diagnostics.energy`: kinetic_energy is translational +
+# a plain run's energies are those of `pdem.checks.diagnostics.energy`: kinetic_energy is translational +
 # rotational, potential_energy = -sum m g.x (zero at the origin), total_energy = kinetic +
 # potential + elastic; max_overlap_ratio is the largest overlap over the smaller radius [-].
 # /series of a plain scene run (kind "scene"), the box test's load record (kind "box_test"),

@@ -1,6 +1,6 @@
 """Packing of the slab domain's messages: numba kernels and reusable buffers.
 
-Owns the copies between the particle arrays (`pdem.state.Particles`, structure of arrays) and the
+Owns the copies between the particle arrays (`pdem.bodies.state.Particles`, structure of arrays) and the
 contiguous row blocks that `pdem.parallel.comm` sends, for `pdem.parallel.slab_domain`:
 
 - every step, the ghost update: ``GHOST_WIDTH`` = 9 float64 per ghost (pos [m], vel [m/s],
@@ -22,7 +22,7 @@ Pure: no MPI, no particles class; plain arrays in.
 import numpy as np
 from numba import njit
 
-from pdem.state import FIELDS
+from pdem.bodies.state import FIELDS
 
 __all__ = ["FLOAT_FIELDS", "GHOST_WIDTH", "GhostBuffers", "INT_FIELDS", "field_views", "pack_fields",
            "pack_ghost_rows", "unpack_ghost_rows"]

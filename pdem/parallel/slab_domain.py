@@ -1,17 +1,17 @@
-"""Slab decomposition over MPI: the `pdem.domain.SerialDomain` interface for several ranks.
+"""Slab decomposition over MPI: the `pdem.parallel.serial_domain.SerialDomain` interface for several ranks.
 
 Owns: the slab edges along one axis, migration of bodies (with every real contact that involves
 them: key, state, params, history) to the rank whose slab holds their centre, the ghost layer
 (copies of the neighbours' bodies within ``halo = 2 r_max + skin`` of this slab, refreshed every
 step) and optional dynamic load balancing (edges moved to equalise owned bodies plus contacts).
-A rigid clump (`pdem.clumps`) is owned, with all its members, by the rank whose slab holds the
+A rigid clump (`pdem.bodies.clumps`) is owned, with all its members, by the rank whose slab holds the
 clump's centre: its members may stick out of that slab by up to the clump extent e (the largest
 member distance from a clump centre), so the halo is 2 r_max + skin + 2 e and the clump rows
 migrate with their members.
 
 Why the trajectory does not depend on the rank count: a sphere pair is computed by every rank
 that owns one of its bodies, from exact copies of both bodies, and each rank sums forces only for
-its owned bodies in partner-gid order (`pdem.forces`); so no force is ever sent back. Ownership
+its owned bodies in partner-gid order (`pdem.contact.forces`); so no force is ever sent back. Ownership
 only decides who computes what, never a number, so moving edges does not change any bit.
 
 Talks to MPI only through a ``pdem.parallel.comm`` communicator (numpy buffers: ``neighbor_
@@ -24,12 +24,12 @@ import time as _time
 
 import numpy as np
 
-from pdem.clumps import unpack_clumps
-from pdem.contacts import KEY_SHIFT_INDEX, KEY_SHIFT_SPHERE
+from pdem.bodies.clumps import unpack_clumps
+from pdem.contact.store import KEY_SHIFT_INDEX, KEY_SHIFT_SPHERE
 from pdem.errors import InputError
 from pdem.parallel import slabs
 from pdem.parallel.packing import FLOAT_FIELDS, INT_FIELDS, GhostBuffers, field_views, pack_fields
-from pdem.state import FIELDS
+from pdem.bodies.state import FIELDS
 
 __all__ = ["SlabDomain", "contact_gids", "migrating_contacts", "pack_rows", "unpack_rows"]
 

@@ -33,7 +33,7 @@ def check(doc):
     name, module = find(doc)
     if module is not None:
         return module.check(doc)
-    from ..config import run_settings, scene_from_dict
+    from ..build.config import run_settings, scene_from_dict
 
     run_settings(doc)
     scene_from_dict(doc, scene_tables=tuple(SCENES))

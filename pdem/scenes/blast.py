@@ -51,8 +51,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..boxes import blocked_mask
-from ..config import check_keys, run_settings, scene_from_dict
+from ..bodies.boxes import blocked_mask
+from ..build.config import check_keys, run_settings, scene_from_dict
 from ..contact import viscous
 from ..driver import observables
 from ..driver.plain import write_snapshot
@@ -68,15 +68,15 @@ from ..driver.stages import (
 )
 from ..errors import InputError, InstabilityError
 from ..format.schema import BLAST_RUN_SERIES, PREPARATION_SERIES, write_blast_parameters
-from ..generators import loose_cloud
+from ..build.generators import loose_cloud
 from ..io.checkpoint import (
     CheckpointError,
     list_checkpoints,
     read_checkpoint,
     write_checkpoint,
 )
-from ..loads import Impulse
-from ..validate import number
+from ..boundaries.loads import Impulse
+from ..build.validate import number
 
 # [blast] keys and defaults (SPEC.md 2.5; stiffness and damping are in [materials])
 DEFAULTS = {

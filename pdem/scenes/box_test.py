@@ -15,7 +15,7 @@ A scene file with a ``[box_test]`` table (keys and defaults in `DEFAULTS`, units
                 [m/s²], f = ``vibration_frequency`` [Hz]. Friction then restored.
 4. ``settle``   settle.
 5. ``load``     the sleeper carries a haversine force ``f_min`` ↔ ``f_max`` [N] at
-                ``frequency`` [Hz] for ``cycles`` cycles (`pdem.loads.Haversine`, pushing down).
+                ``frequency`` [Hz] for ``cycles`` cycles (`pdem.boundaries.loads.Haversine`, pushing down).
 
 With ``prep_stiffness_factor`` f < 1 (law linear) stages 1–4 run with every material's young
 times f, and a ``stiffen`` stage before ``load`` raises it to the materials' over ``stiffen_time``
@@ -49,16 +49,16 @@ series ``sleeper_load``, ``sleeper_force`` [N, ballast reaction, positive up],
 """
 import numpy as np
 
-from ..config import CLUMP_KEYS, check_keys, grain_shape, run_settings, scene_from_dict
-from ..diagnostics import kinetic_energy
+from ..build.config import CLUMP_KEYS, check_keys, grain_shape, run_settings, scene_from_dict
+from ..checks.diagnostics import kinetic_energy
 from ..format.schema import BOX_TEST_SERIES
 from ..driver import observables
 from ..driver.observables import box_face_forces
 from ..driver.results import series_writer, write_cycles, write_root_attrs
 from ..driver.stages import Stage, empty_tables, remove_above, scaled_stiffness
 from ..errors import InputError
-from ..loads import HalfSine, Haversine
-from ..validate import number
+from ..boundaries.loads import HalfSine, Haversine
+from ..build.validate import number
 from .common.preparation import PREPARATION_DEFAULTS, PreparedRun, add_cloud, check_preparation, \
     pour_stage, refill_stage, remove_where, settle_stage, vibrate_stage
 from .cycles import CycleRecorder
@@ -83,7 +83,7 @@ DEFAULTS = {
     "sleeper_placement": "cut",   # "cut": sleeper bottom at cut_height, overlaps loaded at once (Yade); "on_top":
                                   # lowered onto the spheres the cut leaves (touching, no overlap)
     "refill": "beside",           # "beside": clouds beside the sleeper; "whole": one cloud over the whole box
-    "waveform": "haversine",      # "haversine" or "half_sine" (pdem.loads)
+    "waveform": "haversine",      # "haversine" or "half_sine" (pdem.boundaries.loads)
     "base": "one_sided",          # "one_sided" or "two_sided" (grains may pass through; counted)
     "sleeper_surface": "flat",    # "flat": a smooth rigid box; "spheres": the thesis's clump of 2280 steel spheres
     "sleeper_member_radius": 0.005,  # [m] of the "spheres" surface (`sleeper_members`)
@@ -196,7 +196,7 @@ def sleeper_members(size, r=0.005):
     width, whose walls close its ends): top and bottom plates of nx × ny spheres and two side
     walls of ny × (nz − 2), n = size / 2r. For 250 × 300 × 150 mm: 2·25·30 + 2·30·13 = 2280
     spheres, 9.37 kg of steel as Yade sums its members (7850 kg/m³). The sleeper of
-    ``sleeper_surface`` = "spheres" (`pdem.boxes.BoxMembers`)."""
+    ``sleeper_surface`` = "spheres" (`pdem.bodies.boxes.BoxMembers`)."""
     n = [int(round(s / (2 * r))) for s in size]
     axes = [(np.arange(k) - (k - 1) / 2.0) * 2 * r for k in n]
     x, y, z = np.meshgrid(*axes, indexing="ij")

@@ -3,7 +3,7 @@ settlement and force every cycle).
 
 `CycleRecorder` is fed samples ``(t, settlement, force, load)`` in increasing time, typically
 every step or every few steps from the run driver (`CycleRecorder.sample_box(sim, box)` reads them
-from a simulation). For each cycle k of a `pdem.loads.Haversine` program (start t_k = start + k/f,
+from a simulation). For each cycle k of a `pdem.boundaries.loads.Haversine` program (start t_k = start + k/f,
 peak t_k + 1/(2f), end t_k + 1/f) it records, from the first sample at or after each instant:
 the settlement at the start, at the peak and at the end, and over the samples in [t_k, t_k+1):
 the largest and smallest force of the spheres on the box and of the applied load, the

@@ -5,7 +5,7 @@ of ranks.
 Geometry (axis along z through x = y = 0, units SI): a base plane z = 0, a wall of ``facets``
 flat faces (each two triangles) of a cylinder of ``diameter`` [m] up to ``height`` [m], and while
 filling a collar of as many faces above it up to the top of the poured cloud (thesis 4.2,
-footnote 1). The platen is a rigid box (`pdem.boxes`, z translation only) of ``platen_thickness``
+footnote 1). The platen is a rigid box (`pdem.bodies.boxes`, z translation only) of ``platen_thickness``
 [m] and ``platen_mass`` [kg] covering the cylinder (a square of side ``diameter``: boxes touch
 only spheres, so its corners outside the cylinder touch nothing).
 
@@ -27,11 +27,11 @@ pipeline's keys in `pdem.scenes.common.preparation.PREPARATION_DEFAULTS`) runs t
 4. ``settle``   settle.
 5. ``load``     the platen carries F(t) = f_min + (f_max − f_min)(1 − cos 2π t/T)/2 for
                 0 ≤ t ≤ T = ``load_time`` [s] (thesis: "a force varying as a sine from 250 N to
-                1500 kN and back to 250 N"; `pdem.loads.Haversine`, one cycle), pushing down.
+                1500 kN and back to 250 N"; `pdem.boundaries.loads.Haversine`, one cycle), pushing down.
 
 Grains: spheres (radius ``radius`` [m], uniform in r (1 ± ``radius_spread``); thesis: Ø32.5 mm,
 (0.6–1.4) r) unless the table ``[oedometer.clumps]`` gives a grain (keys of ``[[clumps]]``,
-`pdem.config`: shape, radii, member_radius, breakable, stress_free, mass_model, discretization,
+`pdem.build.config`: shape, radii, member_radius, breakable, stress_free, mass_model, discretization,
 samples); each copy turned by its own random rotation (seeded). Breakable clumps need law
 "cohesive". ``packing_fraction`` is the settled solid fraction of member spheres assumed to size
 the cloud.
@@ -51,8 +51,8 @@ from math import cos, pi
 
 import numpy as np
 
-from ..bonds import touching_pairs
-from ..config import CLUMP_KEYS, check_keys, grain_shape, run_settings, scene_from_dict
+from ..bodies.bonds import touching_pairs
+from ..build.config import CLUMP_KEYS, check_keys, grain_shape, run_settings, scene_from_dict
 from ..driver import observables
 from ..driver.fragments import FragmentRecorder
 from ..driver.results import series_writer, write_root_attrs
@@ -60,9 +60,9 @@ from ..driver.stages import Stage, append_bodies, append_tables, check_no_steps,
     next_free_clump, remove_above
 from ..errors import InputError
 from ..format.schema import OEDOMETER_SERIES
-from ..generators import sphere_radii
-from ..loads import Haversine
-from ..validate import boolean, number
+from ..build.generators import sphere_radii
+from ..boundaries.loads import Haversine
+from ..build.validate import boolean, number
 from .common.preparation import PREPARATION_DEFAULTS, PREPARATION_STAGES, PreparedRun, check_preparation, \
     pour_stage, refill_stage, settle_stage, vibrate_stage
 
@@ -231,7 +231,7 @@ def sphere_fill(c, seed):
 
 def grain_fill(c, seed):
     """[(member pos, member radius)] of the poured grains, each turned at random."""
-    from ..clump_generators import random_rotations
+    from ..bodies.clump_generators import random_rotations
 
     g = c["grain"]
     pos, radius = g["members"], g["member_radii"]

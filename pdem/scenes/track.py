@@ -7,12 +7,12 @@ Coordinates: x along the track (the slab axis), y across it (y = 0 the track's c
 z up (z = 0 the top of the subgrade). A scene file with a ``[track]`` table (keys, defaults
 and units in `DEFAULTS`, `TRAFFIC_DEFAULTS`; SI) describes:
 
-- ``sleepers`` rigid concrete sleepers (`pdem.boxes`: one body each, of mass ``sleeper_mass``
+- ``sleepers`` rigid concrete sleepers (`pdem.bodies.boxes`: one body each, of mass ``sleeper_mass``
   [kg] (default ρV of the sleeper material) plus the rail over one ``spacing``,
   ``rail_mass`` [kg/m] per rail) of ``sleeper_size`` = [width along x, length across y,
   height] [m], at x_k = (k + ½)·spacing, their base at z = ``bed_depth``; translations not in
   ``sleeper_blocked`` free (default: z only; a half model: x and z, as the thesis's slice);
-  boxes never rotate (`pdem.boxes`), which blocks the sleeper's rotations: a limitation.
+  boxes never rotate (`pdem.bodies.boxes`), which blocks the sleeper's rotations: a limitation.
 - the bed: from the subgrade (wall z = 0, ``base_material``, soft: stands for the layers
   below) to the sleeper top z_top = bed_depth + sleeper height, over the whole track length
   L = sleepers·spacing between end walls x = 0 and x = L; the shoulders reach
@@ -37,10 +37,10 @@ the thesis's order for the track (compact the bed, then cut it and place the sle
                 checkpoint is copied to ``prepared.h5``: the prepared bed, which any number of
                 load programs start from ([traffic] prepared = that file or its run directory)
                 without preparing again.
-5. ``traffic``  (only with a ``[traffic]`` table) ``program = "axles"``: `pdem.loads.AxleTrain`
+5. ``traffic``  (only with a ``[traffic]`` table) ``program = "axles"``: `pdem.boundaries.loads.AxleTrain`
                 (``passages`` trains of axles at positions ``axles`` [m] behind the first,
                 ``axle_load`` [N], ``speed`` [m/s]; each sleeper carries the time-shifted
-                rail-seat share of every wheel, `pdem.loads.rail_seat_share`, characteristic
+                rail-seat share of every wheel, `pdem.boundaries.loads.rail_seat_share`, characteristic
                 length L = (4 EI a / k_d)^(1/4) from ``rail_bending_stiffness`` EI [N m²] and
                 ``rail_seat_stiffness`` k_d [N/m] or given as ``characteristic_length`` [m]);
                 ``program = "haversine"``: ``cycles`` cycles ``f_min`` <-> ``f_max`` [N per rail
@@ -65,14 +65,14 @@ from pathlib import Path
 
 import numpy as np
 
-from ..config import check_keys, run_settings, scene_from_dict
+from ..build.config import check_keys, run_settings, scene_from_dict
 from ..driver import observables
 from ..driver.results import write_root_attrs
 from ..driver.stages import Stage, empty_tables
 from ..errors import InputError
 from ..io.checkpoint import CheckpointError, read_checkpoint
-from ..loads import ETA_ZERO, AxleTrain, Haversine
-from ..validate import boolean, number
+from ..boundaries.loads import ETA_ZERO, AxleTrain, Haversine
+from ..build.validate import boolean, number
 from .common.preparation import PREPARATION_DEFAULTS, PreparedRun, add_cloud, check_preparation, \
     pour_stage, refill_stage, remove_where, settle_stage, vibrate_stage
 from .track_record import PassageTracker, TrackWriter, sleeper_sample, write_force_record, write_sleepers

@@ -13,7 +13,7 @@ from factories import lattice_scene
 
 from pdem.io.checkpoint import read_checkpoint, write_checkpoint
 from pdem.parallel.comm import SerialComm
-from pdem.scene import Scene
+from pdem.build.scene import Scene
 
 
 def deposition_scene():

@@ -9,7 +9,7 @@ velocity and contact force must equal those of a serial run of the same scene at
 import numpy as np
 from factories import LATTICE_SPACING, lattice_scene
 
-from pdem.loads import Haversine
+from pdem.boundaries.loads import Haversine
 from pdem.parallel.comm import SerialComm, configure_threads
 from pdem.parallel.slab_domain import SlabDomain
 

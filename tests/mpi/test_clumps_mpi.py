@@ -11,7 +11,7 @@ vel, angvel, angmom, ori, force, torque) and the contact tables (bond history) b
 import numpy as np
 from factories import clump_scene
 
-from pdem.fragments import fragments
+from pdem.bodies.fragments import fragments
 from pdem.io.checkpoint import read_checkpoint, write_checkpoint
 from pdem.parallel.comm import SerialComm, configure_threads
 
@@ -138,7 +138,7 @@ def test_clump_wider_than_a_slab(comm):
     import pytest
 
     from pdem.errors import InputError
-    from pdem.scene import Scene
+    from pdem.build.scene import Scene
 
     sc = Scene(dt=1e-5)
     m = sc.material(density=2600.0, young=1e7, poisson=0.3, friction_angle=0.5)

@@ -1,4 +1,4 @@
-"""Rigid boxes with a surface of member spheres (the thesis's clump sleeper, `pdem.boxes.BoxMembers`).
+"""Rigid boxes with a surface of member spheres (the thesis's clump sleeper, `pdem.bodies.boxes.BoxMembers`).
 
 Truth: the sphere–sphere contact that Yade's tests validate (tests/validation): a sphere bouncing
 and rolling on a member of a fixed box must follow, bit for bit, the trajectory it has on a fixed
@@ -63,7 +63,7 @@ def test_loaded_member_box_rests_on_fixed_spheres_newton_and_statics():
     spheres right below the members: at rest, the spheres' forces sum to minus the box's
     (Newton, fsum), the box carries load + weight, and every member's overlap is
     (F + m g)/(16 k_n) with Yade's k_n of two spheres (2 E1 r1 E2 r2/(E1 r1 + E2 r2))."""
-    from pdem.loads import Constant
+    from pdem.boundaries.loads import Constant
 
     sc, ball, steel = ball_and_steel(dt=2e-6, damping=0.4, gravity=G)
     offs = grid(4, 0.02, -0.01 + R_M)

@@ -12,7 +12,7 @@ from factories import BALL, STEEL, ball_and_steel
 
 from pdem import InputError
 from pdem.scenes.cycles import CycleRecorder
-from pdem.loads import Constant, Haversine
+from pdem.boundaries.loads import Constant, Haversine
 from pdem.driver.observables import box_forces, box_positions
 
 G = 9.81

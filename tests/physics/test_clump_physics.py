@@ -27,10 +27,10 @@ import numpy as np
 import pytest
 
 from pdem import Scene
-from pdem.clump_generators import shape_members
-from pdem.clump_properties import qconj, qrot
+from pdem.bodies.clump_generators import shape_members
+from pdem.bodies.clump_properties import qconj, qrot
 from pdem.driver.observables import wall_forces
-from pdem.fragments import fragments
+from pdem.bodies.fragments import fragments
 
 MEMBERS = [(0.0, 0.0, 0.0), (0.012, 0.004, 0.0025), (0.003, 0.011, -0.0023), (-0.006, 0.002, 0.009)]
 RADII = [0.01, 0.012, 0.008, 0.007]

@@ -1,4 +1,4 @@
-"""The runaway guard (`pdem.guard`): tunnelling, runaway bodies and bodies that leave the domain
+"""The runaway guard (`pdem.checks.guard`): tunnelling, runaway bodies and bodies that leave the domain
 stop the run with `InstabilityError` naming the body and the cause, however short the contact;
 initial overlaps with walls, facets and boxes are refused like sphere–sphere ones; and the guard
 changes no trajectory (it only reads).
@@ -14,10 +14,10 @@ import numpy as np
 import pytest
 
 from pdem import InputError
-from pdem.config import scene_from_dict
+from pdem.build.config import scene_from_dict
 from pdem.errors import InstabilityError
-from pdem.guard import STEP_FRACTION
-from pdem.scene import Scene
+from pdem.checks.guard import STEP_FRACTION
+from pdem.build.scene import Scene
 
 R, RHO, E = 0.01, 2600.0, 2.8e7
 M = RHO * 4.0 / 3.0 * math.pi * R ** 3
@@ -164,7 +164,7 @@ def test_loop_overlap_equals_the_overlap_table(threads):
     threads, the parallel one) is the largest overlap / smaller radius of the contact table."""
     import numba
 
-    from pdem import diagnostics
+    from pdem.checks import diagnostics
 
     if threads > numba.config.NUMBA_NUM_THREADS:
         pytest.skip(f"numba allows {numba.config.NUMBA_NUM_THREADS} thread(s) here (NUMBA_NUM_THREADS)")

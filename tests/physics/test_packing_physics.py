@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pdem import diagnostics
+from pdem.checks import diagnostics
 from factories import box_scene
 
 HERE = Path(__file__).resolve().parent

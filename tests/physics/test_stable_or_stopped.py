@@ -20,15 +20,15 @@ import numpy as np
 import pytest
 
 from pdem import InputError
-from pdem.config import scene_from_dict
+from pdem.build.config import scene_from_dict
 from pdem.driver.plain import run_scene_file
 from pdem.driver.results import SCHEMA, FiniteSeriesWriter, finite_row
 from pdem.driver.runloop import RunLoop
-from pdem.config import RUN_DEFAULTS
+from pdem.build.config import RUN_DEFAULTS
 from pdem.errors import InstabilityError
-from pdem.neighbors import max_motion
+from pdem.contact.neighbors import max_motion
 from pdem.parallel.comm import SerialComm
-from pdem.scene import Scene
+from pdem.build.scene import Scene
 
 R, RHO, E = 0.01, 2600.0, 2.8e7
 
@@ -184,7 +184,7 @@ def oscillator(dt_fraction):
 
 
 def test_kinetic_energy_alone_is_the_energys_kinetic_and_rotational_bit_for_bit():
-    from pdem.diagnostics import kinetic_energy
+    from pdem.checks.diagnostics import kinetic_energy
 
     sim = scene_from_dict(deposition_doc()).build()
     for _ in range(300):

@@ -38,8 +38,8 @@ from pdem.scenes.cycles import CycleRecorder
 from pdem.driver.observables import box_face_forces
 from pdem.errors import InputError
 from pdem.io.checkpoint import list_checkpoints, read_checkpoint
-from pdem.loads import HalfSine, Haversine
-from pdem.scene import Scene
+from pdem.boundaries.loads import HalfSine, Haversine
+from pdem.build.scene import Scene
 from pdem.scenes.box_test import DEFAULTS, box_settings, check, cut, sleeper_geometry, sleeper_members, sleeper_on_top
 
 

@@ -28,7 +28,7 @@ from factories import BOX_MATERIALS
 from pdem.scenes.common.preparation import cloud, cloud_count
 from pdem.driver.stages import remove_above
 from pdem.io.checkpoint import list_checkpoints, read_checkpoint
-from pdem.scene import Scene
+from pdem.build.scene import Scene
 from pdem.scenes.box_test import DEFAULTS, sleeper_geometry
 
 

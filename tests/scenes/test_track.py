@@ -31,11 +31,11 @@ from analysis.track import analyse_track, passage_table
 from pdem.driver import observables
 from pdem.scenes.track_record import PassageTracker, TrackWriter, write_sleepers
 from pdem.errors import InputError
-from pdem.facets import facet_row
+from pdem.boundaries.facets import facet_row
 from pdem.io.checkpoint import list_checkpoints, read_checkpoint
-from pdem.loads import rail_seat_share
+from pdem.boundaries.loads import rail_seat_share
 from pdem.parallel.comm import SerialComm
-from pdem.scene import Scene
+from pdem.build.scene import Scene
 from pdem.scenes.track import (check, check_ranks, in_sleepers, outside_bed, profile, same_preparation, sleeper_boxes,
                                sleeper_x, slope_facets, track_settings, traffic_settings)
 from pdem_cli import needs_mpiexec, run_pdem

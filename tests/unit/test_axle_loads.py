@@ -1,4 +1,4 @@
-"""Moving axle loads (`pdem.loads.AxleTrain`, `rail_seat_share`) against independent truth:
+"""Moving axle loads (`pdem.boundaries.loads.AxleTrain`, `rail_seat_share`) against independent truth:
 Zimmermann's influence line written out with numpy, conservation of the wheel load over the
 sleepers, the time shift spacing/speed between neighbouring sleepers, the passage timing, and
 one-line errors for bad input."""
@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from pdem.errors import InputError
-from pdem.loads import ETA_ZERO, AxleTrain, eta, rail_seat_share
+from pdem.boundaries.loads import ETA_ZERO, AxleTrain, eta, rail_seat_share
 
 A, L = 0.6, 0.71  # sleeper spacing, characteristic length [m]
 

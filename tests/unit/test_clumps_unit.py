@@ -6,16 +6,10 @@ import pytest
 
 import pdem
 from pdem import Scene
-from pdem.clump_generators import (
-    THESIS_SHAPES,
-    ballast8,
-    grain_cloud,
-    nottingham_grain,
-    shape_members,
-)
-from pdem.clump_properties import clump_properties
-from pdem.config import scene_from_dict
-from pdem.fragments import label_fragments
+from pdem.bodies.clump_generators import THESIS_SHAPES, ballast8, grain_cloud, nottingham_grain, shape_members
+from pdem.bodies.clump_properties import clump_properties
+from pdem.build.config import scene_from_dict
+from pdem.bodies.fragments import label_fragments
 from pdem.parallel.slab_domain import SlabDomain
 
 
@@ -58,7 +52,7 @@ def test_ballast8_and_thesis_shapes():
 def test_member_spacing_overlaps_nearest_neighbours():
     """``spacing`` < 2r: the same members (same grid, scaled), nearest neighbours overlapping by
     2r − spacing (the thesis's Ø7.2 mm spheres 7.1 mm apart), the same bond graph."""
-    from pdem.bonds import touching_pairs
+    from pdem.bodies.bonds import touching_pairs
 
     for make in (lambda h: nottingham_grain(0.0036, h), lambda h: shape_members("ellipsoid", 0.0036, (0.024,) * 3, h),
                  lambda h: ballast8(0.0036, h)):
@@ -292,7 +286,7 @@ def test_stage_tables_with_clumps():
 
 def test_clump_time_step():
     """A clump's own Δt bound: M/K_t and I_min/K_r with K_r = Σ k (|x_i − x_c| + r_i)²."""
-    from pdem.clumps import clump_dt
+    from pdem.bodies.clumps import clump_dt
 
     pos = np.array([[-0.01, 0.0, 0.0], [0.01, 0.0, 0.0]])
     kmember = np.array([3e5, 1e5])  # Σ (kn + ks) of each member's contacts

@@ -8,7 +8,7 @@ import pytest
 
 from pdem.driver.failures import classify, report_failure, run_guarded
 from pdem.errors import InputError, InstabilityError
-from pdem.generators import loose_cloud
+from pdem.build.generators import loose_cloud
 from pdem.io.checkpoint import CheckpointError, CheckpointWriteError
 from pdem.io.timeseries import ResultsFileError
 from pdem.parallel.comm import SerialComm

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import pdem
-from pdem.config import scene_from_dict
+from pdem.build.config import scene_from_dict
 
 BASE = {
     "materials": {"ballast": {"density": 2600.0, "young": 1e7, "poisson": 0.3, "friction_angle": 0.5}},
@@ -126,7 +126,7 @@ def test_strict_types_one_line(one_line_error, changes, words):
 
 @pytest.mark.parametrize("content", [b"\xff\xfe[\x00r\x00u\x00n\x00]\x00", bytes(range(256))])
 def test_binary_or_utf16_scene_file_one_line(tmp_path, content):
-    from pdem.config import load_toml
+    from pdem.build.config import load_toml
 
     p = tmp_path / "scene.toml"
     p.write_bytes(content)

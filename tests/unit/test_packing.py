@@ -6,7 +6,7 @@ from pdem.parallel.comm import SerialComm
 from pdem.parallel.packing import (GHOST_WIDTH, GhostBuffers, field_views, pack_fields, pack_ghost_rows,
                                    unpack_ghost_rows)
 from pdem.parallel.slab_domain import pack_rows, unpack_rows
-from pdem.state import FIELDS, Particles
+from pdem.bodies.state import FIELDS, Particles
 
 
 def arrays(n, seed=0):

@@ -4,11 +4,11 @@ import numpy as np
 import pytest
 from factories import shuffled_lattice, shuffled_lattice_scene
 
-from pdem import neighbors
-from pdem.contacts import ContactList, carry_history, carry_history_by_first, sphere_pair_keys
+from pdem.contact import neighbors
+from pdem.contact.store import ContactList, carry_history, carry_history_by_first, sphere_pair_keys
 from pdem.parallel.comm import SerialComm
 from pdem.parallel.slab_domain import SlabDomain
-from pdem.state import FIELDS, SCRATCH, Particles
+from pdem.bodies.state import FIELDS, SCRATCH, Particles
 
 
 def by_gid(sim):

@@ -7,7 +7,7 @@ import dataclasses
 import pytest
 
 from pdem import InputError, Scene
-from pdem.checkpoint_state import clock_state, restore_clock
+from pdem.io.checkpoint_state import clock_state, restore_clock
 from pdem.settings import AUTO
 
 

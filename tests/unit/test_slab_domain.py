@@ -2,11 +2,11 @@
 import numpy as np
 import pytest
 
-from pdem.contacts import KEY_SHIFT_INDEX, KEY_SHIFT_SPHERE
+from pdem.contact.store import KEY_SHIFT_INDEX, KEY_SHIFT_SPHERE
 from pdem.parallel.comm import SerialComm
 from pdem.parallel.slab_domain import SlabDomain, contact_gids, migrating_contacts, pack_rows, unpack_rows
-from pdem.scene import Scene
-from pdem.state import FIELDS, SCRATCH, Particles
+from pdem.build.scene import Scene
+from pdem.bodies.state import FIELDS, SCRATCH, Particles
 
 
 def random_cols(n, seed=0):

@@ -53,8 +53,8 @@ from ...driver.stages import Stage, StagedRun, append_bodies, append_tables, clu
     next_free_clump
 from ...errors import InputError
 from ...format.schema import PREPARATION_SERIES
-from ...generators import loose_cloud
-from ...validate import number
+from ...build.generators import loose_cloud
+from ...build.validate import number
 
 PREPARATION_STAGES = ("pour", "refill", "vibrate", "settle")  # the usual order
 # keys of the pipeline in a scene's table, with defaults (SI; thesis 4.2 and table 5.1)
@@ -130,10 +130,10 @@ def add_grain_cloud(tables, doc, c, lo_xy, hi_xy, z0, volume, seed, first_gid, w
     """``tables`` with a loose cloud of rigid clumps appended: ``c["grain"]`` = {"members",
     "member_radii", "mass_model", ...} (one grain about its centre), as many as fill ``volume``
     [m³] at the packing fraction times the overfill (by the members' volume), each turned at
-    random (`pdem.clump_generators.grain_cloud`), on a lattice from z0 up; member gids from
+    random (`pdem.bodies.clump_generators.grain_cloud`), on a lattice from z0 up; member gids from
     ``first_gid``, clump ids after the tables' largest."""
-    from ...clump_generators import grain_cloud
-    from ...config import scene_from_dict
+    from ...bodies.clump_generators import grain_cloud
+    from ...build.config import scene_from_dict
 
     g = c["grain"]
     pos, radius = g["members"], g["member_radii"]

@@ -24,7 +24,7 @@ import pytest
 import yade_json
 
 from pdem import Scene
-from pdem.clump_properties import clump_properties
+from pdem.bodies.clump_properties import clump_properties
 from pdem.contact import cohesive, linear
 
 pytestmark = pytest.mark.validate

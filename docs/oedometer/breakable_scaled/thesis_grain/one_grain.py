@@ -12,9 +12,9 @@ import sys
 
 import numpy as np
 
-from pdem.clump_generators import shape_members
-from pdem.fragments import components
-from pdem.scene import Scene
+from pdem.bodies.clump_generators import shape_members
+from pdem.bodies.fragments import components
+from pdem.build.scene import Scene
 
 T_END = 0.03  # [s]
 

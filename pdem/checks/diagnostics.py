@@ -16,9 +16,9 @@ count. Physics here never knows its rank.
 """
 import numpy as np
 
-from .errors import InstabilityError
-from .settings import AUTO
-from .state import DOF_ALL
+from ..errors import InstabilityError
+from ..settings import AUTO
+from ..bodies.state import DOF_ALL
 
 
 def contacts_per_particle(sim):
@@ -86,7 +86,7 @@ def kinetic_energy(sim):
 
 def free_bodies(sim):
     """bool per owned row: the body moves freely (not fully blocked) and is not a rigid clump's
-    member (a clump counts as one body: `pdem.clumps`)."""
+    member (a clump counts as one body: `pdem.bodies.clumps`)."""
     nl = sim.particles.n_local
     free = sim.particles.blocked[:nl] != DOF_ALL
     if sim.clumps is not None:
@@ -161,7 +161,7 @@ def dt_cause(sim, cause):
     (collective: every rank calls it with the same state and gets the same text)."""
     text = f"(dt = {sim.dt:.3e} s)"
     if sim.settings.dt != AUTO:
-        from .timestep import stable_dt
+        from ..timestep import stable_dt
 
         stable = stable_dt(sim)
         if np.isfinite(stable) and sim.dt > stable:
@@ -196,7 +196,7 @@ def check_overlap(sim, worst, cause):
 
 def check_stability(sim):
     """Raise `InstabilityError` (one line: step, cause, body, Δt; the same on every rank) if the
-    run has blown up or lost bodies (`pdem.guard.Guard.check_domain`)."""
+    run has blown up or lost bodies (`pdem.checks.guard.Guard.check_domain`)."""
     check_finite(sim)
     sim.guard.check_domain(sim)
     check_overlap(sim, max_overlap_ratio(sim), "time step too large or load too high for the stiffness")

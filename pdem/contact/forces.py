@@ -8,8 +8,8 @@ Also: order-independent totals on boundary bodies (walls, boxes: exact sums, `pd
 import numpy as np
 from numba import njit, prange
 
-from .exactsum import NLIMBS, acc_add, acc_normalize
-from .kernels import kernel
+from ..exactsum import NLIMBS, acc_add, acc_normalize
+from ..kernels import kernel
 
 
 @kernel()

@@ -22,7 +22,7 @@ History survives neighbour-list rebuilds and migration because it is looked up b
 import numpy as np
 from numba import njit, prange
 
-from .kernels import kernel
+from ..kernels import kernel
 
 KEY_SHIFT_SPHERE = 32
 KEY_SHIFT_INDEX = 20

@@ -14,9 +14,9 @@ Units: m.
 """
 import numpy as np
 
-from .contact.loops import NORMAL_COLUMNS
-from .contacts import KEY_SHIFT_SPHERE
-from .errors import InputError
+from ..contact.loops import NORMAL_COLUMNS
+from ..contact.store import KEY_SHIFT_SPHERE
+from ..errors import InputError
 
 TOUCH = 1e-9  # relative gap still counted as touching (grid-placed members touch up to roundoff)
 

@@ -2,7 +2,7 @@
 
 A program is a small immutable spec with ``value(t)`` (t [s] since the start of the run) and
 ``spec()`` (JSON-able, for the scene description). The direction is the body's
-(`pdem.boxes`), by default downwards (−z). Imports nothing from pdem but the errors.
+(`pdem.bodies.boxes`), by default downwards (−z). Imports nothing from pdem but the errors.
 
 - `Constant(force)`: F = force.
 - `Haversine(f_min, f_max, frequency, cycles, start=0)`: for ``start ≤ t ≤ start + cycles/f``,
@@ -19,8 +19,8 @@ A program is a small immutable spec with ``value(t)`` (t [s] since the start of 
 """
 from math import ceil, cos, exp, pi, sin
 
-from .errors import InputError
-from .validate import number
+from ..errors import InputError
+from ..build.validate import number
 
 
 class Constant:

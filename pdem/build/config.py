@@ -21,7 +21,7 @@ Values are typed strictly: numbers are numbers (``true`` is not 1), booleans are
     [[spheres]]    pos [[m]], radius [m] or [[m]], material, fixed, vel [m/s]
     [deposition]   box_lo, box_hi [m], count, radius [m], radius_spread [-], seed, material,
                    walls_material (optional: adds a floor and four side walls of the box)
-    [[clumps]]     grains of one shape (`pdem.clump_generators`), each turned at random, on a
+    [[clumps]]     grains of one shape (`pdem.bodies.clump_generators`), each turned at random, on a
                    grid in a box: shape ("ellipsoid"|"cylinder"|"cake" with radii [m] =
                    [R_x, R_y, R_z], or "nottingham"|"ballast8"), member_radius [m] (default of
                    the named grains: 3.55 mm, 8.5 mm), member_spacing [m] (of nearest
@@ -33,10 +33,10 @@ Values are typed strictly: numbers are numbers (``true`` is not 1), booleans are
 import tomllib
 from dataclasses import fields
 
-from .errors import InputError
+from ..errors import InputError
 from .generators import loose_cloud
 from .scene import Scene
-from .settings import SimulationSettings
+from ..settings import SimulationSettings
 from .validate import number
 
 SIMULATION_KEYS = {f.name for f in fields(SimulationSettings)}  # the [simulation] table: the settings
@@ -157,12 +157,8 @@ def add_material_pairs(scene, doc):
 
 def grain_shape(c, label):
     """(member pos, member radius) of the grain a [[clumps]] table describes."""
-    from .clump_generators import (
-        BALLAST8_MEMBER_RADIUS,
-        NOTTINGHAM_MEMBER_RADIUS,
-        ballast8,
-        nottingham_grain,
-        shape_members,
+    from ..bodies.clump_generators import (
+        BALLAST8_MEMBER_RADIUS, NOTTINGHAM_MEMBER_RADIUS, ballast8, nottingham_grain, shape_members
     )
 
     shape = c.get("shape")
@@ -180,7 +176,7 @@ def grain_shape(c, label):
 
 def add_clump_cloud(scene, c, label="clumps"):
     """``count`` grains of a [[clumps]] table, randomly turned, on a grid in its box."""
-    from .clump_generators import grain_cloud
+    from ..bodies.clump_generators import grain_cloud
 
     check_keys(label, c, CLUMP_KEYS, ("shape", "material", "box_lo", "box_hi", "count"))
     pos, radius = grain_shape(c, label)

@@ -11,7 +11,7 @@ Storage: the rows the contact loop reads (`pdem.contact.geometry.SphereFacet`): 
 """
 import numpy as np
 
-from .errors import InputError
+from ..errors import InputError
 
 FACET_COLUMNS = 28  # c(3) n(3) ne(9) icr(1) vu(9) vl(3)
 
@@ -60,7 +60,7 @@ class Facets:
         return len(self.kernel_i)
 
     def search_arrays(self):
-        """Arguments of `pdem.neighbors.build_facet_candidates` after the particles."""
+        """Arguments of `pdem.contact.neighbors.build_facet_candidates` after the particles."""
         return self.geom, self.vertices
 
     def add(self, vertices, material, velocity=(0.0, 0.0, 0.0), name=""):

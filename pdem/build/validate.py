@@ -6,7 +6,7 @@ from math import isfinite
 
 import numpy as np
 
-from .errors import InputError
+from ..errors import InputError
 
 
 def _is_number(value):

@@ -11,7 +11,7 @@ Units: pos [m], vel [m/s], angvel [rad/s], force [N], torque [N·m], radius [m],
 inertia [kg·m²] (a sphere's scalar moment 2/5·m·r², Yade's ``utils.sphere``).
 ``blocked`` is a bit mask of blocked degrees of freedom: bits 0–2 translations x, y, z, bits 3–5
 rotations; 63 means fixed. A blocked body still moves with its (prescribed) velocity.
-``clump`` is the id of the clump the sphere belongs to (a rigid clump, `pdem.clumps`, or a
+``clump`` is the id of the clump the sphere belongs to (a rigid clump, `pdem.bodies.clumps`, or a
 breakable clump whose members are held by bonds), -1 for a sphere that never was in a clump.
 Imports nothing from pdem but numpy.
 """

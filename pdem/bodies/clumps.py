@@ -1,7 +1,7 @@
 """Rigid clumps: spheres fused into one rigid body, integrated as Yade 2023.02a does
 (YADE_MODEL.md §7–8; thesis 3.3, eqs. 3.32–3.33; SPEC 1.2).
 
-Members are ordinary spheres (rows of `pdem.state.Particles` with ``clump`` = the clump id):
+Members are ordinary spheres (rows of `pdem.bodies.state.Particles` with ``clump`` = the clump id):
 they have contacts with everything except the members of their own clump (those pairs are
 dropped from the candidate list, `drop_same_clump`). The clump body is a row of `Clumps`, owned
 with all its members by the rank that owns its centre (`pdem.parallel.slab_domain`).
@@ -32,8 +32,8 @@ from math import cos, sin, sqrt
 import numpy as np
 from numba import njit, prange
 
-from .kernels import kernel
-from .vec import cross3, dot3
+from ..kernels import kernel
+from ..vec import cross3, dot3
 
 CLUMP_FLOATS = {"pos": 3, "vel": 3, "angvel": 3, "angmom": 3, "ori": 4, "mass": 1, "inertia": 3}
 CLUMP_INTS = ("id", "aspherical")

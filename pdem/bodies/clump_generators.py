@@ -32,8 +32,8 @@ regular grid, 4.1), filling from the bottom up in random order within a layer. U
 """
 import numpy as np
 
-from .errors import InputError
-from .validate import number, vector3
+from ..errors import InputError
+from ..build.validate import number, vector3
 
 THESIS_SHAPES = {"sphere": (0.024, 0.024, 0.024), "ellipsoid": (0.024, 0.030, 0.019),
                  "cylinder": (0.018, 0.018, 0.040), "cake": (0.010, 0.037, 0.037)}  # thesis table 4.11 [m]

@@ -31,10 +31,10 @@ from math import sqrt
 import numpy as np
 from numba import njit
 
-from .errors import InputError
-from .loads import Constant, Haversine, Impulse, SleeperLoad
+from ..errors import InputError
+from ..boundaries.loads import Constant, Haversine, Impulse, SleeperLoad
 from .state import DOF_ALL
-from .validate import number, vector3
+from ..build.validate import number, vector3
 
 DOF_LETTERS = "xyzXYZ"
 ROTATIONS = 0b111000
@@ -114,7 +114,7 @@ class Boxes:
         return len(self.mass)
 
     def search_arrays(self):
-        """Arguments of `pdem.neighbors.build_box_candidates` after the particles (boxes with
+        """Arguments of `pdem.contact.neighbors.build_box_candidates` after the particles (boxes with
         member spheres have no flat faces: they are left out)."""
         return self.center, self.half, self.members.count_of(len(self)) == 0
 
@@ -139,8 +139,8 @@ class Boxes:
         mask = blocked_mask(label, blocked, fixed)
         if load is not None and not isinstance(load, (Constant, Haversine, Impulse, SleeperLoad)):
             raise InputError(
-                f"{label}.load = {load!r}: must be None or a pdem.loads program (Haversine, Constant, Impulse, "
-                "SleeperLoad)"
+                f"{label}.load = {load!r}: must be None or a pdem.boundaries.loads program (Haversine, Constant, "
+                "Impulse, SleeperLoad)"
             )
         d = vector3(f"{label}.direction", direction)
         norm = float(np.sqrt(d @ d))
@@ -254,7 +254,7 @@ class BoxMembers:
         return np.bincount(self.box, minlength=n_boxes)[:n_boxes]
 
     def search_arrays(self):
-        """Arguments of `pdem.neighbors.build_member_candidates` after the particles."""
+        """Arguments of `pdem.contact.neighbors.build_member_candidates` after the particles."""
         return self.kernel_f[:, 0:3], self.radius
 
     def add(self, label, box, offsets, radius, material, half):

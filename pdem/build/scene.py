@@ -20,28 +20,21 @@ from math import pi
 
 import numpy as np
 
-from .bonds import TOUCH, bonded_rows, check_bond_strengths
-from .boxes import Boxes
-from .clump_setup import (
-    check_tables,
-    mass_settings,
-    member_sets,
-    owner_positions,
-    per_clump,
-    rigid_rows,
-)
-from .clumps import Clumps, extent_of
-from .contact import get_law
-from .domain import SerialDomain
-from .errors import InputError
-from .facets import Facets
-from .guard import Guard, check_initial_overlaps
+from ..bodies.bonds import TOUCH, bonded_rows, check_bond_strengths
+from ..bodies.boxes import Boxes
+from ..bodies.clump_setup import check_tables, mass_settings, member_sets, owner_positions, per_clump, rigid_rows
+from ..bodies.clumps import Clumps, extent_of
+from ..contact import get_law
+from ..parallel.serial_domain import SerialDomain
+from ..errors import InputError
+from ..boundaries.facets import Facets
+from ..checks.guard import Guard, check_initial_overlaps
 from .materials import MaterialTable
-from .settings import AUTO, simulation_settings
-from .simulation import Simulation
-from .state import DOF_ALL, FIELDS, Particles, with_defaults
+from ..settings import AUTO, simulation_settings
+from ..simulation import Simulation
+from ..bodies.state import DOF_ALL, FIELDS, Particles, with_defaults
 from .validate import boolean, number, vectors
-from .walls import Walls
+from ..boundaries.walls import Walls
 
 
 def sphere_columns(pos, radius, density, first_gid):
@@ -80,8 +73,8 @@ class Scene:
         self.facets = Facets()
         self.boxes = Boxes()
         self._spheres = []
-        self._clumps = []  # (clumps, clump_members) tables of the rigid clumps (pdem.clumps)
-        self._bonds = []  # (gid1, gid2, stress_free) of the bonds of breakable clumps (pdem.bonds)
+        self._clumps = []  # (clumps, clump_members) tables of the rigid clumps (pdem.bodies.clumps)
+        self._bonds = []  # (gid1, gid2, stress_free) of the bonds of breakable clumps (pdem.bodies.bonds)
         self._clump_ids = []
 
     @property
@@ -187,7 +180,7 @@ class Scene:
         return sc
 
     def body_tables(self):
-        """The declared bodies as global tables (`pdem.checkpoint_state` layout): ``particles``;
+        """The declared bodies as global tables (`pdem.io.checkpoint_state` layout): ``particles``;
         ``clumps`` and ``clump_members`` if there are rigid clumps; the bonds, made now, as
         ``contacts/sphere_sphere`` rows (key, params, history) if there are any."""
         cols = self.spheres()
@@ -215,12 +208,12 @@ class Scene:
         radii [m]: one number or one per member), one entry per clump; the members of a clump
         must overlap or touch so as to form one body; ``material`` is the members' material.
 
-        Rigid clumps (`pdem.clumps`, Yade's clumps): ``vel`` [m/s] and ``angvel`` [rad/s] (one
+        Rigid clumps (`pdem.bodies.clumps`, Yade's clumps): ``vel`` [m/s] and ``angvel`` [rad/s] (one
         triple or one per clump); ``angmom`` [kg·m²/s] sets the angular momentum instead of
         I·ω (then ``angvel`` is only the spin of the first step's damping and contact velocities,
         as when Yade's state.angMom is set); ``mass_model`` "members" (Yade's default: overlaps
         counted twice), "grid" (Yade's discretization, ``discretization`` cells along the
-        shortest side) or "monte_carlo" (``samples`` points, ``seed``): `pdem.clump_properties`.
+        shortest side) or "monte_carlo" (``samples`` points, ``seed``): `pdem.bodies.clump_properties`.
 
         ``breakable=True``: the members are free spheres joined by bonds of the scene's law
         (cohesive) between every two members that overlap or touch, made when the scene is
@@ -296,7 +289,7 @@ class Scene:
 
     def add_clump_tables(self, clumps, members):
         """Add rigid clumps given as tables (``clumps`` and ``clump_members`` of a checkpoint,
-        `pdem.checkpoint_state`), keeping their ids and state; their member spheres are added
+        `pdem.io.checkpoint_state`), keeping their ids and state; their member spheres are added
         with `add_sphere_columns`. Used between the stages of a multi-stage scene."""
         clumps = {k: np.asarray(v).copy() for k, v in clumps.items()}
         members = {k: np.asarray(v).copy() for k, v in members.items()}
@@ -331,11 +324,11 @@ class Scene:
 
         `fixed` blocks every DOF (the box still moves with `velocity` [m/s]); `blocked` is a
         string of blocked DOFs from "xyzXYZ" and must contain XYZ (boxes do not rotate; default
-        "XYZ": free translations). `load` is a `pdem.loads` program (e.g. `Haversine`) whose
+        "XYZ": free translations). `load` is a `pdem.boundaries.loads` program (e.g. `Haversine`) whose
         magnitude [N] pushes along `direction` (default −z); `damping` is the box's own Cundall
         λ_D (default 0: the box is not damped). `members` [k, 3] (centres relative to `center`
         [m]) of spheres of `member_radius` [m] of the box's material replace its flat faces: the
-        thesis's clump sleeper (`pdem.boxes.BoxMembers`)."""
+        thesis's clump sleeper (`pdem.bodies.boxes.BoxMembers`)."""
         label = f"boxes.{name}" if name else f"boxes[{len(self.boxes)}]"
         m = self._material_index(f"{label}.material", material)
         return self.boxes.add(center, half_extents, m, mass, blocked=blocked, fixed=fixed, load=load,
@@ -344,7 +337,7 @@ class Scene:
 
     # ------------------------------------------------------------------ build
     def spheres(self):
-        """All declared spheres as one dict of columns (see `pdem.state.FIELDS`)."""
+        """All declared spheres as one dict of columns (see `pdem.bodies.state.FIELDS`)."""
         if not self._spheres:
             raise InputError("spheres: the scene has no spheres")
         return {k: np.concatenate([s[k] for s in self._spheres]) for k in FIELDS}
@@ -366,7 +359,7 @@ class Scene:
         return out
 
     def _check_initial_overlaps(self, cols):
-        from .neighbors import build_sphere_pairs
+        from ..contact.neighbors import build_sphere_pairs
 
         pos, r, gid, cl = cols["pos"], cols["radius"], cols["gid"], cols["clump"]
         n = len(gid)
@@ -385,7 +378,7 @@ class Scene:
 
     def _check_coincident_centres(self, cols):
         """Overlaps allowed, but two spheres on one centre have no contact normal (0/0): refused."""
-        from .neighbors import build_sphere_pairs
+        from ..contact.neighbors import build_sphere_pairs
 
         pos, r, gid = cols["pos"], cols["radius"], cols["gid"]
         n = len(gid)
@@ -418,13 +411,13 @@ class Scene:
         bonds = self._bond_rows(cols, skin) if self._bonds else None
         if domain is None:
             if comm is None:
-                from .parallel.comm import SerialComm
+                from ..parallel.comm import SerialComm
 
                 comm = SerialComm()
             if comm.size == 1:
                 domain = SerialDomain(comm)
             else:
-                from .parallel.slab_domain import SlabDomain
+                from ..parallel.slab_domain import SlabDomain
 
                 domain = SlabDomain(comm, axis=s.slab_axis)
                 domain.check_rank_count(cols, skin)

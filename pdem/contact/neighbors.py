@@ -12,8 +12,8 @@ from math import floor, sqrt
 import numpy as np
 from numba import njit, prange
 
-from .kernels import kernel
-from .vec import dot3
+from ..kernels import kernel
+from ..vec import dot3
 
 
 @njit(cache=True)
@@ -340,7 +340,7 @@ def build_box_candidates(pos, radius, n_local, skin, box_center, box_half, box_s
 
 @njit(cache=True)
 def build_member_candidates(pos, radius, n_local, skin, member_pos, member_radius):
-    """(ptr[n_local+1], sphere[m], member[m]): member spheres of boxes (`pdem.boxes.BoxMembers`)
+    """(ptr[n_local+1], sphere[m], member[m]): member spheres of boxes (`pdem.bodies.boxes.BoxMembers`)
     whose centre lies within r + r_member + skin of each owned sphere's, in member index order
     per sphere. Spheres outside the members' bounding box (grown by the largest reach) are
     skipped at once."""

@@ -11,7 +11,7 @@ attributes are views of them.
 """
 import numpy as np
 
-from .errors import InputError
+from ..errors import InputError
 
 AXES = {"x": 0, "y": 1, "z": 2}
 
@@ -48,7 +48,7 @@ class Walls:
         return len(self) - 1
 
     def search_arrays(self):
-        """Arguments of `pdem.neighbors.build_wall_candidates` after the particles."""
+        """Arguments of `pdem.contact.neighbors.build_wall_candidates` after the particles."""
         return self.axis, self.position
 
     def move(self, dt):

@@ -1,9 +1,9 @@
-"""Declaring clumps: member spheres, rigid-clump rows and bonds, checked, as `pdem.scene.Scene`
+"""Declaring clumps: member spheres, rigid-clump rows and bonds, checked, as `pdem.build.scene.Scene`
 builds them (`Scene.add_clumps`, `Scene.add_clump`, `Scene.add_breakable_clump`).
 
 `member_sets` checks the member lists (at least 2 spheres, radii > 0, one connected body of
-overlapping or touching spheres, `pdem.bonds.touching_pairs`); `rigid_rows` computes each rigid
-clump's mass properties (`pdem.clump_properties`) and the members' initial velocities
+overlapping or touching spheres, `pdem.bodies.bonds.touching_pairs`); `rigid_rows` computes each rigid
+clump's mass properties (`pdem.bodies.clump_properties`) and the members' initial velocities
 (v_i = v + ω × (x_i − x_c), ω_i = ω); `owner_positions` gives the position that decides which
 rank owns a body (a member goes with its clump's centre, `pdem.parallel.slab_domain`).
 Units: m, m/s, rad/s, kg·m²/s.
@@ -20,8 +20,8 @@ from .clump_properties import (
     sub,
 )
 from .clumps import CLUMP_FLOATS, CLUMP_INTS
-from .errors import InputError
-from .validate import number, vector3, vectors
+from ..errors import InputError
+from ..build.validate import number, vector3, vectors
 
 
 def member_sets(label, members):

@@ -7,7 +7,7 @@ result is the same on every rank and platform (numpy's PCG64 generator).
 """
 import numpy as np
 
-from .errors import InputError
+from ..errors import InputError
 
 
 def sphere_radii(n, r_mean, spread, seed):

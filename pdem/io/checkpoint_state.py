@@ -5,12 +5,12 @@ that is not rebuilt from these is either derived (neighbour lists, ghosts, incid
 per-step output (forces, overlaps), so a restored run continues bit for bit on any number of
 ranks (tests/io/test_restart.py, tests/mpi/test_restart_mpi.py).
 
-Tables: ``particles`` (`pdem.state.FIELDS` of the owned bodies, key gid),
+Tables: ``particles`` (`pdem.bodies.state.FIELDS` of the owned bodies, key gid),
 ``contacts/<kind>`` (real contacts of each kind of `Simulation.kinds`: key, params, history; a
 pair that straddles a slab edge is held, bit for bit identical, by both ranks and the writer
 keeps one copy), ``walls`` (index, position, velocity), ``facets`` (index, geom, vertices,
 velocity) and ``boxes`` (index, center, velocity), replicated on every rank; with rigid clumps
-``clumps`` (id, pos, vel, angvel, angmom, ori, mass, inertia, aspherical; `pdem.clumps`) and
+``clumps`` (id, pos, vel, angvel, angmom, ori, mass, inertia, aspherical; `pdem.bodies.clumps`) and
 ``clump_members`` (gid, clump, relpos), written by the rank that owns each clump. Bonds of
 breakable clumps are contacts (``contacts/sphere_sphere``, the law's history).
 
@@ -19,16 +19,10 @@ The clock (step, time, Δt, rebuild count, energy reference) goes into the meta 
 """
 import numpy as np
 
-from .clump_setup import check_tables, owner_positions
-from .clumps import (
-    CLUMP_TABLE,
-    MEMBER_TABLE,
-    empty_clump_table,
-    empty_member_table,
-    extent_of,
-)
-from .state import FIELDS, with_defaults
-from .timestep import update_dt
+from ..bodies.clump_setup import check_tables, owner_positions
+from ..bodies.clumps import CLUMP_TABLE, MEMBER_TABLE, empty_clump_table, empty_member_table, extent_of
+from ..bodies.state import FIELDS, with_defaults
+from ..timestep import update_dt
 
 
 def _boundary_tables(sim):
@@ -41,7 +35,7 @@ def _boundary_tables(sim):
     if n:
         out["facets"] = {"index": np.arange(n, dtype=np.int64), "geom": sim.facets.geom.copy(),
                          "vertices": sim.facets.vertices.copy(), "velocity": sim.facets.velocity.copy()}
-    if sim.boxes is not None:  # rigid boxes (pdem.boxes): the state their step evolves
+    if sim.boxes is not None:  # rigid boxes (pdem.bodies.boxes): the state their step evolves
         out["boxes"] = {"index": np.arange(len(sim.boxes), dtype=np.int64), "center": sim.boxes.center.copy(),
                         "velocity": sim.boxes.velocity.copy()}
     return out
@@ -52,7 +46,7 @@ def checkpoint_tables(sim):
 
     Meta: step, time, dt, the energy-check reference and the other scalars of the loop, the
     scene spec and the pdem version."""
-    from .version import __version__
+    from ..version import __version__
 
     p = sim.particles
     tables = {"particles": p.columns()}
@@ -66,7 +60,7 @@ def checkpoint_tables(sim):
     for name, table in _boundary_tables(sim).items():
         tables[name] = table
         keys[name] = ["index"]
-    if sim.clumps is not None:  # rigid clumps (pdem.clumps): owned by one rank each, with their members
+    if sim.clumps is not None:  # rigid clumps (pdem.bodies.clumps): owned by one rank each, with their members
         tables[CLUMP_TABLE], tables[MEMBER_TABLE] = sim.clumps.table()
         keys[CLUMP_TABLE], keys[MEMBER_TABLE] = ["id"], ["gid"]
     meta = {

@@ -12,11 +12,11 @@ naming the step, the body and the cause; the line is the same on every rank):
     exceed the scene's ``max_overlap_ratio`` (default 0.5). With the displacement bound, an
     overlap cannot pass from below the limit to beyond a radius in one step, so no contact,
     however short, goes through unseen;
-- every ``check_interval`` steps (`check_domain`, from `pdem.diagnostics.check_stability`): no
+- every ``check_interval`` steps (`check_domain`, from `pdem.checks.diagnostics.check_stability`): no
   body may be behind a wall it started in front of (its centre more than its radius beyond the
   plane: it went through), nor outside the declared domain box (``simulation.domain``);
 - at build (`check_initial_overlaps`): no sphere may start overlapping a wall, a facet or a box
-  (as for sphere pairs in `pdem.scene`), nor start behind a one-sided wall, unless the scene
+  (as for sphere pairs in `pdem.build.scene`), nor start behind a one-sided wall, unless the scene
   sets ``allow_initial_overlap``.
 
 The domain of a scene: the half-spaces in front of its walls (a one-sided wall's side; a
@@ -29,12 +29,12 @@ from functools import cache
 import numpy as np
 from numba import njit
 
-from . import vec
-from .contact import geometry as geometry_module
-from .contact.geometry import CONTACT
+from .. import vec
+from ..contact import geometry as geometry_module
+from ..contact.geometry import CONTACT
 from .diagnostics import agree, check_finite, check_overlap, dt_cause
-from .errors import InstabilityError
-from .kernels import specialize
+from ..errors import InstabilityError
+from ..kernels import specialize
 
 STEP_FRACTION = 0.25  # largest displacement per step over the body's radius [-]
 
@@ -154,7 +154,7 @@ def _behind_walls(pos, n, axis, position, sense):
 def check_initial_overlaps(sim):
     """Stop with one line (InputError, every rank) if a sphere starts overlapping a wall, a facet
     or a box, or behind a one-sided wall (collective)."""
-    from .errors import InputError
+    from ..errors import InputError
 
     p = sim.particles
     what, worst = "", 0.0
