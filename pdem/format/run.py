@@ -56,5 +56,8 @@ def read_run_info(run_dir) -> dict | None:
 
 
 def clear_run_info(run_dir) -> None:
-    """Remove the account of an earlier run (if any)."""
-    (Path(run_dir) / RUN_INFO).unlink(missing_ok=True)
+    """Remove the account of an earlier run (if any; an output path that is no folder is left to
+    the run's own check, which names it as bad input)."""
+    path = Path(run_dir) / RUN_INFO
+    if path.is_file():
+        path.unlink()
