@@ -21,8 +21,12 @@ and units in `DEFAULTS`, `TRAFFIC_DEFAULTS`; SI) describes:
   top), as in the thesis (its mould was 4 planes and 4 facets). ``half = true`` models the half
   on y >= 0 by symmetry (a wall at y = 0, sleeper y-translation blocked): the thesis's slice
   is ``half = true, sleepers = 1`` (600 mm of track, half-sleeper 1300 x 300 x 220 mm).
-- The rail is not a body: a rigid sleeper that cannot rotate carries the rail-seat load
-  wherever it acts, so the rail adds only its mass.
+- The rail: by default not a body (a rigid sleeper that cannot rotate carries the rail-seat
+  load wherever it acts, so the rail adds only its mass); with ``[traffic] rail_model = "beam"``
+  an elastic beam on pads over the sleepers (`pdem.boundaries.rail_beam.SleeperRails`, keys
+  ``rail_pad_stiffness`` [N/m], ``rail_length`` [m]; `rail_settings`): each step the pads'
+  forces, from the sleepers' positions and the wheels, are the sleepers' loads, and the rail's
+  weight goes through the pads instead of the sleepers' mass.
 
 Stages: the preparation pipeline shared with the box test (`pdem.scenes.common.preparation`), in
 the thesis's order for the track (compact the bed, then cut it and place the sleeper on it):
@@ -49,7 +53,7 @@ the thesis's order for the track (compact the bed, then cut it and place the sle
 
 Results (`pdem.format.schema`, kind "track"): ``results.h5`` with /series (`TRACK_SERIES`), /track
 (settlement and ballast force of every sleeper per sample), /passages (peak and permanent
-settlement, gap under each sleeper), /forces/peak_passage_<p> and end_passage_<p> (contact force
+settlement, gap under each sleeper; with the beam the peak load on each sleeper), /forces/peak_passage_<p> and end_passage_<p> (contact force
 distributions, passages 1, every ``forces_every``-th and the last); ``preparation.h5`` and
 ``.png``; ``analysis/`` (`python -m analysis track`); ``summary.txt`` (stages, passages, wall
 time, throughput, load balance over the ranks, timing table) and ``scaling.json`` (the same,
