@@ -53,8 +53,9 @@ the thesis's order for the track (compact the bed, then cut it and place the sle
 
 Results (`pdem.format.schema`, kind "track"): ``results.h5`` with /series (`TRACK_SERIES`), /track
 (settlement and ballast force of every sleeper per sample), /passages (peak and permanent
-settlement, gap under each sleeper; with the beam the peak load on each sleeper), /forces/peak_passage_<p> and end_passage_<p> (contact force
-distributions, passages 1, every ``forces_every``-th and the last); ``preparation.h5`` and
+settlement, gap under each sleeper; with the beam the peak load on each sleeper),
+/forces/peak_passage_<p> and end_passage_<p> (contact force distributions, passages 1, every
+``forces_every``-th and the last); ``preparation.h5`` and
 ``.png``; ``analysis/`` (`python -m analysis track`); ``summary.txt`` (stages, passages, wall
 time, throughput, load balance over the ranks, timing table) and ``scaling.json`` (the same,
 for `bench.scaling_model`); ParaView snapshots on schedule, at stage ends and at every
