@@ -32,7 +32,7 @@ from .blast import analyse_blast, blast_dict, write_blast
 from .figures import plot_preparation, plot_run_series
 from .oedometer import run_oedometer
 from .summary import run_box
-from .track import run_track
+from .track import KN, fit_lines, fit_settlement, run_track
 
 MM = 1e3
 # stage table: the columns every staged run has (key, label, format); the scene adds its own
@@ -133,7 +133,12 @@ def track(run, info):
         lines.append(f"{int(p['passage'][i]):7d} {p['t_end'][i]:10.4f}  {MM * peak.mean():9.3f} {MM * peak.max():9.3f}"
                      f"            {MM * permanent.mean():8.3f} {MM * permanent.min():8.3f} "
                      f"{MM * permanent.max():8.3f}   {gap}")
-    return lines, run_track(run, run / "analysis")
+    if "load_peak" in p:
+        lines += ["peak load of the rail (a beam) on each sleeper per passage [kN]:"]
+        lines += [f"{int(p['passage'][i]):7d}  " + " ".join(f"{KN * f:7.3f}" for f in p["load_peak"][i])
+                  for i in range(len(p["passage"]))]
+    fits = fit_settlement(p["passage"], p["settlement_permanent"].mean(axis=1))
+    return lines + fit_lines(fits), run_track(run, run / "analysis")
 
 
 KINDS = {"scene": scene, "box_test": box_test, "oedometer": oedometer, "blast": blast, "track": track}

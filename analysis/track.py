@@ -5,7 +5,9 @@ future work).
 This module owns the analysis of a kind "track" result (layout in `pdem.format.schema`: per-sleeper
 series ``/track``, the per-passage table ``/passages``, force records ``/forces/<label>``), its
 figures (``track_settlement.png``: permanent settlement along the track per passage and a
-passage x sleeper map; ``track_voids.png``; ``track_forces.png``: histograms and exceedance
+passage x sleeper map; ``track_passages.png``: settlement of every sleeper against the number
+of passages with the fits, and with a beam rail the peak load on every sleeper per passage as a
+sleeper x passage map; ``track_voids.png``; ``track_forces.png``: histograms and exceedance
 curves; ``track_sleepers.png``: settlement and force of each sleeper in time) and tables
 (``track.txt``, ``track.json``), and `passage_table`, which builds the per-passage table from
 the series (for the scene driver and for checks). Definitions:
@@ -16,6 +18,11 @@ the series (for the scene driver and for checks). Definitions:
 - peak settlement: largest settlement during the passage [m];
 - gap: void under the sleeper at the end of the passage [m]; a sleeper is "hanging" when its
   gap exceeds `HANGING_GAP`;
+- peak load: the largest load of the rail on a sleeper during the passage [N] (written when
+  the rail is a beam: the load share the beam and the bed give each sleeper);
+- settlement against the number of passages N: the mean permanent settlement after passage N
+  fitted (least squares, `scipy.optimize.curve_fit`) by the two forms used for ballast,
+  S = a + b·log10 N [m] and S = a·N^b [m, -], only with at least `MIN_FIT_PASSAGES` passages;
 - force distribution: for forces f_i > 0 of one kind at one instant, mean <f>, quantiles
   (linear interpolation), and the exceedance P(F >= f) = (n - i)/n for the i-th smallest
   (i = 0..n-1), plotted against f/<f> with the exponential exp(-f/<f>) for reference.
@@ -37,6 +44,7 @@ from pdem.format.groups import ForceRecord, TrackRecord, read_track
 from pdem.format.read import results_file
 
 HANGING_GAP = 1e-4   # [m] a gap above this (0.1 mm) counts as a hanging sleeper
+MIN_FIT_PASSAGES = 5  # passages needed before settlement is fitted against N
 MAX_LINES = 12       # passages drawn as lines (evenly chosen, always the first and last)
 MM, KN = 1e3, 1e-3
 QUANTILES = (0.5, 0.95, 0.99)
@@ -89,6 +97,41 @@ class ForceStatistics:
     max_over_mean: float
 
 
+@dataclass(frozen=True)
+class SettlementFits:
+    """The fits of the mean permanent settlement S [m] against the number of passages N.
+
+    ``forms`` maps "a + b log10 N" and "a N^b" to {"a", "b", "rms"} (rms residual [m]);
+    empty, with ``reason`` saying why, when they were not fitted."""
+
+    forms: dict
+    reason: str = ""
+
+
+FIT_FORMS = {"a + b log10 N": lambda n, a, b: a + b * np.log10(n),
+             "a N^b": lambda n, a, b: a * np.power(n, b)}
+
+
+def fit_settlement(n, s) -> SettlementFits:
+    """Fit S(N) by `FIT_FORMS` (``n`` passage numbers, ``s`` settlement [m]); none with fewer
+    than `MIN_FIT_PASSAGES` passages, and a form that cannot be fitted says why."""
+    from scipy.optimize import curve_fit
+
+    n, s = np.asarray(n, np.float64), np.asarray(s, np.float64)
+    if len(n) < MIN_FIT_PASSAGES:
+        return SettlementFits({}, f"not fitted: {len(n)} passage(s), at least {MIN_FIT_PASSAGES} needed")
+    forms = {}
+    for name, f in FIT_FORMS.items():
+        p0 = (float(s[0]) if s[0] != 0 else 1e-4, 0.1 if name == "a N^b" else float(s[-1] - s[0]))
+        try:
+            (a, b), _ = curve_fit(f, n, s, p0=p0, maxfev=10000)
+        except (RuntimeError, ValueError) as exc:  # no convergence
+            forms[name] = {"a": float("nan"), "b": float("nan"), "rms": float("nan"), "failed": str(exc)}
+            continue
+        forms[name] = {"a": float(a), "b": float(b), "rms": float(np.sqrt(np.mean((f(n, a, b) - s) ** 2)))}
+    return SettlementFits(forms)
+
+
 def force_statistics(forces) -> ForceStatistics:
     """n, mean, std (population), median, 95 and 99 % quantiles, maximum of forces [N]."""
     f = np.asarray(forces, dtype=np.float64)
@@ -121,16 +164,20 @@ class TrackAnalysis:
         ``max_permanent``, ``increment`` (change of the mean permanent settlement in the
         passage), ``differential`` (largest difference between neighbouring sleepers),
         ``mean_peak``, ``max_peak`` [m]; with gaps ``mean_gap``, ``max_gap`` [m] and
-        ``hanging`` [-] (sleepers with gap > `hanging_gap`).
+        ``hanging`` [-] (sleepers with gap > `hanging_gap`); with peak loads
+        ``mean_load_peak``, ``max_load_peak`` [N].
     forces : dict of label -> dict of kind -> ForceStatistics
         kind is "sleeper_ballast" or "ballast_ballast".
     hanging_gap : float [m]
+    fits : SettlementFits
+        The mean permanent settlement against the number of passages.
     """
 
     record: TrackRecord
     per_passage: dict
     forces: dict
     hanging_gap: float
+    fits: SettlementFits
 
     @property
     def has_gap(self) -> bool:
@@ -154,13 +201,15 @@ def analyse_track(record: TrackRecord, hanging_gap: float = HANGING_GAP) -> Trac
     if "gap" in p:
         table.update(mean_gap=p["gap"].mean(axis=1), max_gap=p["gap"].max(axis=1),
                      hanging=np.count_nonzero(p["gap"] > hanging_gap, axis=1).astype(float))
+    if "load_peak" in p:
+        table.update(mean_load_peak=p["load_peak"].mean(axis=1), max_load_peak=p["load_peak"].max(axis=1))
     forces = {}
     for label, rec in record.forces.items():
         forces[label] = {kind: force_statistics(getattr(rec, kind))
                          for kind in ("sleeper_ballast", "ballast_ballast")
                          if getattr(rec, kind) is not None}
     return TrackAnalysis(record=record, per_passage=table, forces=forces,
-                         hanging_gap=float(hanging_gap))
+                         hanging_gap=float(hanging_gap), fits=fit_settlement(p["passage"], mean_perm))
 
 
 # --- output: tables, JSON, PNG, command line ---
@@ -178,10 +227,13 @@ PASSAGE_COLUMNS = (  # name, header, scale SI -> shown, units shown, format
     ("mean_gap", "gap_mean", MM, "mm", "{:9.4f}"),
     ("max_gap", "gap_max", MM, "mm", "{:9.4f}"),
     ("hanging", "hanging", 1.0, "-", "{:8.0f}"),
+    ("mean_load_peak", "Fpeak_mean", KN, "kN", "{:10.4f}"),
+    ("max_load_peak", "Fpeak_max", KN, "kN", "{:10.4f}"),
 )
 SI_UNITS = {"passage": "-", "t_start": "s", "t_end": "s", "mean_permanent": "m",
             "min_permanent": "m", "max_permanent": "m", "increment": "m", "differential": "m",
-            "mean_peak": "m", "max_peak": "m", "mean_gap": "m", "max_gap": "m", "hanging": "-"}
+            "mean_peak": "m", "max_peak": "m", "mean_gap": "m", "max_gap": "m", "hanging": "-",
+            "mean_load_peak": "N", "max_load_peak": "N"}
 
 
 def track_lines(result: TrackAnalysis) -> list[str]:
@@ -200,7 +252,9 @@ def track_lines(result: TrackAnalysis) -> list[str]:
         "passage; dS_neigh the largest difference between neighbouring sleepers; Speak the "
         "largest settlement during the passage"
         + (f"; hanging = sleepers with gap > {result.hanging_gap * MM:g} mm" if result.has_gap
-           else "; no gap data"),
+           else "; no gap data")
+        + ("; Fpeak the largest load of the rail (a beam) on a sleeper in the passage"
+           if "load_peak" in p else ""),
         "",
         " ".join(h.rjust(w) for (_, h, *_), w in zip(columns, widths)),
         " ".join(f"[{u}]".rjust(w) for (_, _, _, u, _), w in zip(columns, widths)),
@@ -221,6 +275,7 @@ def track_lines(result: TrackAnalysis) -> list[str]:
         if result.has_gap:
             row += f" {p['gap'][-1, k] * MM:>9.4f}"
         lines.append(row)
+    lines += ["", *fit_lines(result.fits)]
     lines += ["", "contact force distributions (quantiles by linear interpolation):"]
     if not result.forces:
         lines.append("  (no /forces records)")
@@ -239,6 +294,24 @@ def track_lines(result: TrackAnalysis) -> list[str]:
     return lines
 
 
+def fit_lines(fits: SettlementFits) -> list[str]:
+    """The fits of the mean permanent settlement against N, one line each (or why none)."""
+    head = "mean permanent settlement S against the number of passages N"
+    if not fits.forms:
+        return [f"{head}: {fits.reason}"]
+    lines = [f"{head} (least squares):"]
+    for name, f in fits.forms.items():
+        if "failed" in f:
+            lines.append(f"  S = {name}: no fit ({f['failed']})")
+        elif name == "a N^b":
+            lines.append(f"  S = {name}: a = {f['a'] * MM:.4g} mm, b = {f['b']:.4g}; rms residual "
+                         f"{f['rms'] * MM:.3g} mm")
+        else:
+            lines.append(f"  S = {name}: a = {f['a'] * MM:.4g} mm, b = {f['b'] * MM:.4g} mm; rms residual "
+                         f"{f['rms'] * MM:.3g} mm")
+    return lines
+
+
 def track_dict(result: TrackAnalysis) -> dict:
     """The report as JSON-ready data [SI]."""
     rec = result.record
@@ -253,6 +326,11 @@ def track_dict(result: TrackAnalysis) -> dict:
         "settlement_permanent": [_floats(row) for row in rec.passages["settlement_permanent"]],
         "settlement_peak": [_floats(row) for row in rec.passages["settlement_peak"]],
         "gap": ([_floats(row) for row in rec.passages["gap"]] if result.has_gap else None),
+        "load_peak": ([_floats(row) for row in rec.passages["load_peak"]]
+                      if "load_peak" in rec.passages else None),
+        "fits": {"of": "mean permanent settlement [m] against the passage number N",
+                 "forms": {k: {n: _json(v) if n != "failed" else v for n, v in f.items()}
+                           for k, f in result.fits.forms.items()}, "reason": result.fits.reason},
         "forces": {label: {kind: {k: _json(v) for k, v in vars(s).items()}
                            for kind, s in kinds.items()}
                    for label, kinds in result.forces.items()},
@@ -290,6 +368,48 @@ def plot_settlement_map(result: TrackAnalysis, path) -> Path:
     ax_map.xaxis.set_major_locator(MaxNLocator(integer=True))
     ax_map.yaxis.set_major_locator(MaxNLocator(integer=True))
     ax_map.set(xlabel="sleeper [-]", ylabel="passage [-]", title="Settlement: passage × sleeper")
+    return save(fig, path)
+
+
+def plot_passages(result: TrackAnalysis, path) -> Path:
+    """Permanent settlement of every sleeper against the passage number, with the mean and its
+    fits; with peak loads, the peak load on every sleeper as a sleeper x passage map."""
+    from matplotlib.figure import Figure
+    from matplotlib.ticker import MaxNLocator
+
+    from .figures import save
+
+    rec = result.record
+    p = rec.passages
+    n = p["passage"]
+    loads = "load_peak" in p
+    fig = Figure(figsize=(12.0 if loads else 6.5, 4.8), layout="constrained")
+    axes = fig.subplots(1, 2 if loads else 1)
+    ax = axes[0] if loads else axes
+    for k, colour in enumerate(_colours(rec.n_sleepers)):
+        ax.plot(n, p["settlement_permanent"][:, k] * MM, "o-", ms=3, lw=0.8, color=colour,
+                label=f"sleeper {k}" if rec.n_sleepers <= 12 else None)
+    ax.plot(n, result.per_passage["mean_permanent"] * MM, "k-", lw=2.0, label="mean")
+    grid = np.linspace(1.0, n[-1], 200)
+    for (name, f), style in zip(result.fits.forms.items(), ("--", ":")):
+        if "failed" not in f:
+            ax.plot(grid, FIT_FORMS[name](grid, f["a"], f["b"]) * MM, style, color="C3", lw=1.5,
+                    label=f"fit S = {name}")
+    ax.invert_yaxis()
+    ax.xaxis.set_major_locator(MaxNLocator(integer=True))
+    ax.set(xlabel="passage N [-]", ylabel="permanent settlement [mm] (down)",
+           title="Settlement per sleeper and passage" + ("" if result.fits.forms else
+                                                         f"\n({result.fits.reason})"))
+    ax.grid(True, alpha=0.3)
+    ax.legend(fontsize="x-small", ncol=2)
+    if loads:
+        ax_map = axes[1]
+        mesh = ax_map.pcolormesh(_edges(np.arange(rec.n_sleepers, dtype=float)), _edges(n.astype(float)),
+                                 p["load_peak"] * KN, cmap="magma", shading="flat")
+        fig.colorbar(mesh, ax=ax_map, label="peak load of the rail on the sleeper [kN]")
+        ax_map.xaxis.set_major_locator(MaxNLocator(integer=True))
+        ax_map.yaxis.set_major_locator(MaxNLocator(integer=True))
+        ax_map.set(xlabel="sleeper [-]", ylabel="passage [-]", title="Sleeper load from the rail: passage × sleeper")
     return save(fig, path)
 
 
@@ -406,6 +526,7 @@ def run_track(run_or_file, out=None, hanging_gap=HANGING_GAP) -> list[Path]:
     out = Path(out) if out is not None else path.with_name(path.stem + "-analysis")
     out.mkdir(parents=True, exist_ok=True)
     written = [plot_settlement_map(result, out / "track_settlement.png"),
+               plot_passages(result, out / "track_passages.png"),
                plot_sleepers(result, out / "track_sleepers.png")]
     if result.has_gap:
         written.append(plot_voids(result, out / "track_voids.png"))
@@ -421,7 +542,7 @@ def add_parser(sub) -> None:
     """The ``track`` subcommand of ``python -m analysis``."""
     p = sub.add_parser(
         "track", help="track section: settlement per sleeper and passage, voids, forces",
-        description="Write track_settlement.png, track_sleepers.png, track_voids.png (with "
+        description="Write track_settlement.png, track_passages.png, track_sleepers.png, track_voids.png (with "
                     "gap data), track_forces.png (with /forces records), track.txt and "
                     "track.json for a track run.")
     p.add_argument("results", type=Path, metavar="RUN",

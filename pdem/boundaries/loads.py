@@ -15,7 +15,9 @@ A program is a small immutable spec with ``value(t)`` (t [s] since the start of 
 - `AxleTrain(...)`: trains of axles passing at a constant speed over a row of sleepers (moving
   axle loads); `AxleTrain.sleeper_load(x)` is the program of the sleeper at x: the time-shifted
   rail-seat share of every wheel (`rail_seat_share`, Zimmermann's beam on an elastic
-  foundation).
+  foundation), or, given a ``rail`` (`pdem.boundaries.rail_beam.SleeperRails`, the rail as a
+  beam on pads), what the rail's pads push on that sleeper now (it depends on where the
+  sleepers are: a hanging sleeper passes its load to its neighbours).
 """
 from math import ceil, cos, exp, pi, sin
 
@@ -206,9 +208,10 @@ class AxleTrain:
                 f += q * rail_seat_share(x - a, self.spacing, self.length)
         return f
 
-    def sleeper_load(self, x, wheels):
-        """The force program of the sleeper at x (``wheels`` rail seats)."""
-        return SleeperLoad(self, x, wheels)
+    def sleeper_load(self, x, wheels, rail=None):
+        """The force program of the sleeper at x (``wheels`` rail seats): the prescribed share,
+        or through ``rail`` (an object with ``load(t, x)`` [N, downward] and ``spec()``)."""
+        return SleeperLoad(self, x, wheels, rail)
 
     def spec(self):
         return {"type": "axle_train", "axle_load": self.axle_load, "axles": list(self.offsets), "speed": self.speed,
@@ -217,15 +220,20 @@ class AxleTrain:
 
 
 class SleeperLoad:
-    """F(t) on one sleeper of an `AxleTrain`: its rail seats' shares of every wheel."""
+    """F(t) on one sleeper of an `AxleTrain`: its rail seats' shares of every wheel, or, with a
+    ``rail``, the force of the rail's pads on it (`pdem.boundaries.rail_beam.SleeperRails.load`)."""
 
-    def __init__(self, train, x, wheels):
+    def __init__(self, train, x, wheels, rail=None):
         self.train = train
         self.x = float(x)
         self.wheels = int(wheels)
+        self.rail = rail
 
     def value(self, t):
+        if self.rail is not None:
+            return self.rail.load(t, self.x)
         return self.train.load(t, self.x, self.wheels)
 
     def spec(self):
-        return {**self.train.spec(), "sleeper_x": self.x, "wheels": self.wheels}
+        return {**self.train.spec(), "sleeper_x": self.x, "wheels": self.wheels,
+                **({"rail": self.rail.spec()} if self.rail is not None else {})}

@@ -236,3 +236,61 @@ class RailBeam:
             if found is not None:
                 w = w + q * matvec(np.ascontiguousarray(self._g[:, found[0]]), found[1])
         return self.pad_stiffness * (w - u)
+
+
+class SleeperRails:
+    """The rails (one `RailBeam` each: a half model has one, a whole track two) over a row of
+    sleepers that translate only, coupled to them every step: the load program of every sleeper
+    (`pdem.boundaries.loads.SleeperLoad` with ``rail``).
+
+    ``train`` (`pdem.boundaries.loads.AxleTrain`) says where the axles are at t
+    (``axle_positions``); each puts ``axle_load``/2 [N] on every rail. The rail seats of sleeper
+    j move with it: u_j = z_j − z_j,0 [m] (z up) from the sleeper centres ``reference`` [m] at
+    the start of the traffic (`attach`), where the pads are unstressed and the rail straight.
+    ``load(t, x)`` is the downward force [N] of every rail's pad on the sleeper at x, from the
+    sleepers' positions now (those of ``boxes``, read when the boxes' load is applied: the same
+    instant as their contact forces) and the wheels at t; computed once for every sleeper per
+    (t, positions) and summed over the rails in order, so every rank (the boxes are replicated)
+    gets the same bits. The rails' weight enters through the pads (the sleepers' mass then
+    leaves it out)."""
+
+    def __init__(self, beams, train):
+        self.beams = list(beams)
+        self.train = train
+        self.index = {float(x): j for j, x in enumerate(self.beams[0].seats_x)}
+        self.boxes, self.reference = None, None
+        self._key, self._load = None, None
+
+    def attach(self, boxes, reference):
+        """Couple to ``boxes`` (their rows are the sleepers in seat order) with the sleeper
+        centre heights ``reference`` [m] at which the rails were laid."""
+        self.boxes = boxes
+        self.reference = np.asarray(reference, float).copy()
+
+    def pad_forces(self, t, z):
+        """Force [N] (z up) of all rails' pads on each sleeper for sleeper centre heights z [m]
+        and the wheels at t."""
+        wheels = self.train.axle_positions(t)
+        q = [self.train.axle_load / 2.0] * len(wheels)
+        u = np.asarray(z, float) - self.reference
+        total = np.zeros(len(u))
+        for beam in self.beams:
+            total = total + beam.seat_forces(u, wheels, q)
+        return total
+
+    def load(self, t, x):
+        z = self.boxes.center[:, 2]
+        if self._key is None or self._key[0] != t or not np.array_equal(self._key[1], z):
+            self._key, self._load = (t, z.copy()), -self.pad_forces(t, z)
+        return float(self._load[self.index[float(x)]])
+
+    @property
+    def weight(self):
+        """The rails' weight [N] (what the pads carry with no wheel on the rails)."""
+        return sum(b.mass * b.gravity * (b.x_end - b.x_start) for b in self.beams)
+
+    def spec(self):
+        b = self.beams[0]
+        return {"type": "rail_beam", "rails": len(self.beams), "bending_stiffness": b.ei, "mass": b.mass,
+                "pad_stiffness": b.pad_stiffness.tolist(), "x_start": b.x_start, "x_end": b.x_end,
+                "nodes": len(b.nodes_x)}

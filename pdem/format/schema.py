@@ -73,7 +73,9 @@ Kind "track" (SPEC 2.4). Sleepers are numbered 0..n_sleepers-1 along the track a
     passage, unloaded), ``gap`` [n_passages, n_sleepers] [m], optional (void under the sleeper
     at the end of the passage: the vertical distance the unloaded sleeper could move down
     before touching the ballast, i.e. from its base to the top of the highest grain under its
-    footprint; 0 where it rests on the ballast).
+    footprint; 0 where it rests on the ballast); ``load_peak`` [n_passages, n_sleepers] [N],
+    optional (the largest load of the rail on the sleeper during the passage, downward: written
+    when the rail is a beam, whose load on each sleeper depends on the bed).
 ``/forces/<label>`` (contact force distributions at named instants, e.g. "peak_passage_1",
     any kind) attrs ``label``, ``step`` [-], ``time`` [s]; at least one of
     ``sleeper_ballast`` [n_contacts] [N] (normal force of each sleeper-ballast contact) and
@@ -268,7 +270,7 @@ TRACK = "track"
 TRACK_UNITS = {"sleeper_x": "m", "settlement": "m", "force": "N"}
 PASSAGES = "passages"
 PASSAGE_UNITS = {"passage": "-", "t_start": "s", "t_end": "s", "settlement_peak": "m",
-                 "settlement_permanent": "m", "gap": "m"}
+                 "settlement_permanent": "m", "gap": "m", "load_peak": "N"}
 PASSAGE_REQUIRED = ("passage", "t_start", "t_end", "settlement_peak", "settlement_permanent")
 
 FORCES = "forces"
@@ -424,7 +426,7 @@ def append_track_rows(target, settlement, force) -> int:
 
 
 def append_passages(target, t_start, t_end, settlement_peak, settlement_permanent,
-                    gap=None) -> int:
+                    gap=None, load_peak=None) -> int:
     """Append rows (passages) to the ``/passages`` table, creating it on the first call.
 
     Parameters
@@ -434,6 +436,8 @@ def append_passages(target, t_start, t_end, settlement_peak, settlement_permanen
     settlement_peak, settlement_permanent : array [n, n_sleepers] (or [n_sleepers]) [m]
     gap : array [n, n_sleepers] (or [n_sleepers]) [m], optional
         Void under each sleeper; either always given or never.
+    load_peak : array [n, n_sleepers] (or [n_sleepers]) [N], optional
+        Largest rail load on each sleeper in the passage; either always given or never.
 
     Returns
     -------
@@ -451,6 +455,8 @@ def append_passages(target, t_start, t_end, settlement_peak, settlement_permanen
                   "settlement_permanent": settlement_permanent}
         if gap is not None:
             tables["gap"] = gap
+        if load_peak is not None:
+            tables["load_peak"] = load_peak
         rows = {k: _rows(v, k, n_sleepers) for k, v in tables.items()}
         if any(len(v) != len(t0) for v in rows.values()):
             raise ValueError("passage tables must have one row per t_start")
@@ -464,8 +470,8 @@ def append_passages(target, t_start, t_end, settlement_peak, settlement_permanen
                 ds = g.create_dataset(name, shape=(0, n_sleepers), maxshape=(None, n_sleepers),
                                       dtype=np.float64)
                 ds.attrs["units"] = PASSAGE_UNITS[name]
-        elif ("gap" in g) != ("gap" in rows):
-            raise ValueError("gap must be given for every passage or for none")
+        elif any((name in g) != (name in rows) for name in ("gap", "load_peak")):
+            raise ValueError("gap and load_peak must each be given for every passage or for none")
         done = g["passage"].shape[0]
         _append(g["passage"], np.arange(done + 1, done + len(t0) + 1, dtype=np.float64))
         _append(g["t_start"], t0)

@@ -21,8 +21,12 @@ and units in `DEFAULTS`, `TRAFFIC_DEFAULTS`; SI) describes:
   top), as in the thesis (its mould was 4 planes and 4 facets). ``half = true`` models the half
   on y >= 0 by symmetry (a wall at y = 0, sleeper y-translation blocked): the thesis's slice
   is ``half = true, sleepers = 1`` (600 mm of track, half-sleeper 1300 x 300 x 220 mm).
-- The rail is not a body: a rigid sleeper that cannot rotate carries the rail-seat load
-  wherever it acts, so the rail adds only its mass.
+- The rail: by default not a body (a rigid sleeper that cannot rotate carries the rail-seat
+  load wherever it acts, so the rail adds only its mass); with ``[traffic] rail_model = "beam"``
+  an elastic beam on pads over the sleepers (`pdem.boundaries.rail_beam.SleeperRails`, keys
+  ``rail_pad_stiffness`` [N/m], ``rail_length`` [m]; `rail_settings`): each step the pads'
+  forces, from the sleepers' positions and the wheels, are the sleepers' loads, and the rail's
+  weight goes through the pads instead of the sleepers' mass.
 
 Stages: the preparation pipeline shared with the box test (`pdem.scenes.common.preparation`), in
 the thesis's order for the track (compact the bed, then cut it and place the sleeper on it):
@@ -49,8 +53,9 @@ the thesis's order for the track (compact the bed, then cut it and place the sle
 
 Results (`pdem.format.schema`, kind "track"): ``results.h5`` with /series (`TRACK_SERIES`), /track
 (settlement and ballast force of every sleeper per sample), /passages (peak and permanent
-settlement, gap under each sleeper), /forces/peak_passage_<p> and end_passage_<p> (contact force
-distributions, passages 1, every ``forces_every``-th and the last); ``preparation.h5`` and
+settlement, gap under each sleeper; with the beam the peak load on each sleeper),
+/forces/peak_passage_<p> and end_passage_<p> (contact force distributions, passages 1, every
+``forces_every``-th and the last); ``preparation.h5`` and
 ``.png``; ``analysis/`` (`python -m analysis track`); ``summary.txt`` (stages, passages, wall
 time, throughput, load balance over the ranks, timing table) and ``scaling.json`` (the same,
 for `bench.scaling_model`); ParaView snapshots on schedule, at stage ends and at every
@@ -71,7 +76,8 @@ from ..driver.results import write_root_attrs
 from ..driver.stages import Stage, empty_tables
 from ..errors import InputError
 from ..io.checkpoint import CheckpointError, read_checkpoint
-from ..boundaries.loads import ETA_ZERO, AxleTrain, Haversine
+from ..boundaries.loads import ETA_ZERO, AxleTrain, Haversine, SleeperLoad
+from ..boundaries.rail_beam import RailBeam, RailSection, SleeperRails
 from ..build.validate import boolean, number
 from .common.preparation import PREPARATION_DEFAULTS, PreparedRun, add_cloud, check_preparation, \
     pour_stage, refill_stage, remove_where, settle_stage, vibrate_stage
@@ -107,12 +113,16 @@ TRAFFIC_DEFAULTS = {
     "passages": 1, "rest_time": 0.2,    # [-], unloaded time after each passage [s]
     "rail_bending_stiffness": 6.38e6,   # EI of one rail [N m^2] (60E1: E 210 GPa, I 3038 cm^4)
     "rail_seat_stiffness": 6.0e7,       # support stiffness per rail seat k_d [N/m]
+    "rail_model": "share",              # "share": prescribed rail-seat shares; "beam": the rail as a beam on pads
+    "rail_pad_stiffness": 1.0e8,        # [N/m] per rail pad (rail_model "beam"; 100 kN/mm)
     # program "haversine" (thesis ch. 6: 0 -> F -> 0; table 6.1: F = 200 kN)
     "f_min": 0.0, "f_max": 200e3, "frequency": 1.0, "cycles": 1,
 }
-TRAFFIC_OPTIONAL = {"x_from", "x_to", "characteristic_length"}
+TRAFFIC_OPTIONAL = {"x_from", "x_to", "characteristic_length", "rail_length"}
 AXLE_KEYS = {"axle_load", "axles", "speed", "passages", "rest_time", "rail_bending_stiffness", "rail_seat_stiffness",
-             "x_from", "x_to", "characteristic_length"}
+             "x_from", "x_to", "characteristic_length", "rail_model", "rail_pad_stiffness", "rail_length"}
+BEAM_KEYS = {"rail_pad_stiffness", "rail_length"}  # rail_model "beam" only
+RAIL_MODELS = ("share", "beam")
 HAVERSINE_KEYS = {"f_min", "f_max", "frequency", "cycles"}
 WHERE = ("track", "in the track bed")
 PREPARED = "prepared.h5"
@@ -211,7 +221,59 @@ def traffic_settings(doc, c):
         raise InputError(f"traffic.x_from = {train.x_from!r}, x_to = {train.x_to!r}: the axles never come within "
                          f"reach ({reach:.3g} m = 3π/4 L) of a sleeper (x = {x[0]:g} .. {x[-1]:g} m): no axle load "
                          "reaches any sleeper")
+    return rail_settings(t, given, c, train)
+
+
+def rail_settings(t, given, c, train):
+    """The rail model's keys of [traffic] (program "axles"), checked: ``rail_model`` "share" (the
+    prescribed shares) or "beam" (`pdem.boundaries.rail_beam`: ``rail_pad_stiffness`` [N/m] > 0,
+    ``rail_length`` [m] at most the track's, centred on it); with the beam, the sleepers' mass
+    ``body_mass`` leaves the rails out (their weight reaches the sleepers through the pads)."""
+    if t["rail_model"] not in RAIL_MODELS:
+        raise InputError(f"traffic.rail_model = {t['rail_model']!r}: must be 'share' (prescribed rail-seat shares) or "
+                         "'beam' (the rail as a beam on pads)")
+    t["body_mass"] = c["body_mass"]
+    if t["rail_model"] == "share":
+        for k in sorted(BEAM_KEYS & set(given)):
+            raise InputError(f"traffic.{k}: not used by rail_model = 'share'; remove it")
+        return t
+    t["rail_pad_stiffness"] = number("traffic.rail_pad_stiffness", t["rail_pad_stiffness"], 0.0, lo_open=True,
+                                     allow="a number > 0 [N/m]")
+    length = profile(c)["length"]
+    t["rail_length"] = number("traffic.rail_length", t.get("rail_length", length), 0.0, lo_open=True,
+                              allow="a length > 0 [m]")
+    if t["rail_length"] > length:
+        raise InputError(f"traffic.rail_length = {t['rail_length']!r}: longer than the track ({length:g} m = sleepers "
+                         "x spacing, between the end walls)")
+    rails = 1 if c["half"] else 2
+    t["body_mass"] = c["body_mass"] - rails * c["rail_mass"] * c["spacing"]
+    sleeper_rails(c, t, train)  # checks that the rail reaches over every seat
     return t
+
+
+def sleeper_rails(c, t, train):
+    """The rails of rail_model "beam" over the sleepers' seats (one per modelled rail), for ``train``."""
+    x = sleeper_x(c)
+    if len(x) < 2:
+        raise InputError(f"track.sleepers = {c['sleepers']}: rail_model = 'beam' needs at least 2 sleepers (a rail "
+                         "on one pad has no bending)")
+    length, mid = t["rail_length"], profile(c)["length"] / 2
+    section = RailSection(t["rail_bending_stiffness"], c["rail_mass"])
+    beams = [RailBeam(x, t["rail_pad_stiffness"], section=section, x_start=mid - length / 2, x_end=mid + length / 2,
+                      label="traffic.rail_length") for _ in range(1 if c["half"] else 2)]
+    return SleeperRails(beams, train)
+
+
+def check_pad_step(sim, t, rails):
+    """The pads act on the sleepers explicitly: the time step must resolve a sleeper on its
+    ``rails`` pads (stiffness at most k each, `pdem.boundaries.rail_beam`): Δt <= sqrt(m / (rails
+    k)), half the leapfrog's limit for safety; else a one-line InputError naming the key."""
+    m = float(np.min(sim.boxes.mass))
+    limit = (m / (rails * t["rail_pad_stiffness"])) ** 0.5
+    if sim.dt > limit:
+        raise InputError(f"traffic.rail_pad_stiffness = {t['rail_pad_stiffness']!r}: too stiff for the time step "
+                         f"{sim.dt:.3g} s (a sleeper of {m:.4g} kg on {rails} pad(s) needs dt <= sqrt(m/(n k)) = "
+                         f"{limit:.3g} s)")
 
 
 def make_train(t, c, start):
@@ -296,10 +358,11 @@ def slope_facets(c):
 
 
 # ---------------------------------------------------------------------------- stage scenes
-def stage_scene(doc, c, tables, sleepers=True, loads=None, centres=None):
+def stage_scene(doc, c, tables, sleepers=True, loads=None, centres=None, mass=None):
     """The `Scene` of a stage holding the spheres of ``tables``: the file's materials and
     settings, the subgrade, end and side walls, and if ``sleepers`` (from ``refill`` on) the
-    slope facets and the sleepers (at ``centres`` if given; loaded by ``loads`` in ``traffic``)."""
+    slope facets and the sleepers (at ``centres`` if given; loaded by ``loads`` in ``traffic``;
+    each of ``mass`` [kg], default the track's ``body_mass``)."""
     base = {k: v for k, v in doc.items() if k in ("simulation", "materials")}
     base["simulation"] = {"slab_axis": "x", **base.get("simulation", {}), "allow_initial_overlap": True}
     scene = scene_from_dict(base)
@@ -316,7 +379,8 @@ def stage_scene(doc, c, tables, sleepers=True, loads=None, centres=None):
         start, half = sleeper_boxes(c)
         at = start if centres is None else np.asarray(centres, float)
         for k in range(c["sleepers"]):
-            scene.add_box(at[k], half, c["sleeper_material"], c["body_mass"], blocked=c["sleeper_blocked"],
+            scene.add_box(at[k], half, c["sleeper_material"], c["body_mass"] if mass is None else mass,
+                          blocked=c["sleeper_blocked"],
                           load=None if loads is None else loads[k], damping=scene.settings.damping,
                           name=f"sleeper_{k}")
     scene.add_sphere_columns(tables["particles"])
@@ -339,7 +403,8 @@ def traffic_loads(c, t, start):
     mid = 0.5 * (x[0] + x[-1])
     ends = [train.passage_times(p)[1] for p in range(train.passages)]
     peaks = [train.time_over(p, mid) for p in range(train.passages)]
-    return [train.sleeper_load(xk, wheels) for xk in x], ends, peaks
+    rail = sleeper_rails(c, t, train) if t["rail_model"] == "beam" else None
+    return [train.sleeper_load(xk, wheels, rail) for xk in x], ends, peaks
 
 
 # ---------------------------------------------------------------------------- the run
@@ -349,7 +414,7 @@ def check(doc):
     t = traffic_settings(doc, c)
     run_settings(doc)
     loads = traffic_loads(c, t, 0.0)[0] if t is not None else None
-    stage_scene(doc, c, empty_tables(), loads=loads)
+    stage_scene(doc, c, empty_tables(), loads=loads, mass=None if t is None else t.get("body_mass"))
 
 
 def run(path, doc, out_dir, comm, steps=None, fresh=False):
@@ -383,7 +448,7 @@ class TrackRun(PreparedRun):
     def __init__(self, path, doc, out_dir, comm, fresh):
         self.c = track_settings(doc)
         self.t = traffic_settings(doc, self.c)
-        self.tracker, self.writer, self.loads_report = None, None, None
+        self.tracker, self.writer, self.loads_report, self.rails = None, None, None, None
         self.snapped = None  # the step of the last snapshot written with a force record
         super().__init__(path, doc, out_dir, comm, fresh)
         self.step0 = int(self.meta["step"]) if self.meta else 0  # where this invocation starts
@@ -477,7 +542,9 @@ class TrackRun(PreparedRun):
         return stage_scene(self.doc, self.c, tables, loads=loads, centres=centres)
 
     def traffic_scene(self, tables):
-        return self.stage_scene(tables, traffic_loads(self.c, self.t, self.state["traffic_start"])[0])
+        loads = traffic_loads(self.c, self.t, self.state["traffic_start"])[0]
+        centres = tables["boxes"]["center"] if "boxes" in tables else None
+        return stage_scene(self.doc, self.c, tables, loads=loads, centres=centres, mass=self.t.get("body_mass"))
 
     def bodies_settled(self, sim):
         """The sleepers at rest: on every one, |net force| / weight and |velocity| / sqrt(g r)
@@ -517,19 +584,27 @@ class TrackRun(PreparedRun):
                     f"{t['frequency']:g} Hz on every sleeper")
         return (f"{t['passages']} passage(s) of {len(t['axles'])} axle(s) of {t['axle_load']:g} N at "
                 f"{t['speed']:g} m/s, axles at {t['axles']} m, from x = {t['x_from']:.3f} to {t['x_to']:.3f} m, "
-                f"rest {t['rest_time']:g} s; rail-seat shares with L = {t['characteristic_length']:.4f} m")
+                f"rest {t['rest_time']:g} s; " + (
+                    f"rail-seat shares with L = {t['characteristic_length']:.4f} m" if t["rail_model"] == "share" else
+                    f"the rail as a beam (EI {t['rail_bending_stiffness']:.4g} N m^2, {self.c['rail_mass']:g} kg/m, "
+                    f"{t['rail_length']:g} m) on pads of {t['rail_pad_stiffness']:.4g} N/m"))
 
     def load_program(self, sim, scene):
         state, run = self.state, self.run_cfg
         t0 = state["traffic_start"]
         _, ends, peaks = traffic_loads(self.c, self.t, t0)
         resumed = state["tracker"] is not None
+        load = sim.boxes.loads[0]  # the built simulation's own copy of the load programs
+        self.rails = load.rail if isinstance(load, SleeperLoad) else None
         if resumed:
             tr = PassageTracker.restore(state["tracker"])
         else:
-            tr = PassageTracker(ends, peaks, sim.boxes.center[:, 2])
+            tr = PassageTracker(ends, peaks, sim.boxes.center[:, 2], loads=self.rails is not None)
             tr.start(sim.time, tr.settlement(sim.boxes.center[:, 2]))
         self.tracker = tr
+        if self.rails is not None:
+            self.rails.attach(sim.boxes, tr.reference)  # the rails laid on the sleepers where the traffic started
+            check_pad_step(sim, self.t, len(self.rails.beams))
         self.writer = w = TrackWriter(self.results, sleeper_x(self.c), self.comm,
                                       restart_step=self.restart_step if resumed else None, passages_done=tr.p)
         self.loop.flush.append(w)
@@ -545,7 +620,7 @@ class TrackRun(PreparedRun):
 
         def on_step(sim):
             s = tr.settlement(sim.boxes.center[:, 2])
-            events = tr.update(sim.time, s)
+            events = tr.update(sim.time, s, None if self.rails is None else -sim.boxes.load_force[:, 2])
             p = tr.p + 1
             if "peak" in events and recorded(p):
                 self.force_record(f"peak_passage_{p}", sim)
@@ -553,7 +628,7 @@ class TrackRun(PreparedRun):
                 gap = observables.box_gaps(sim)
                 row = tr.close(sim.time, s)
                 w.append(*sleeper_sample(sim, tr))
-                w.passage(row[0], row[1], row[2], row[3], gap)
+                w.passage(row[0], row[1], row[2], row[3], gap, load_peak=row[4])
                 if recorded(p):
                     self.force_record(f"end_passage_{p}", sim)
                 self.loop.log(f"passage {p}/{n} done at t = {sim.time:.4f} s: settlement peak "

@@ -4,14 +4,17 @@
   (positive down, from the sleeper's centre at the start of traffic [m]), its largest value in
   the passage (peak) and its value when the passage ends (permanent). A passage ends at the
   first step at or after its nominal end; its peak instant is the first step at or after the
-  nominal peak (the first axle over the middle sleeper, or mid-cycle). Plain data, JSON state
-  for checkpoints; fed every step with the replicated sleeper positions (identical on every
+  nominal peak (the first axle over the middle sleeper, or mid-cycle). With ``loads = True`` (the
+  rail as a beam) it also follows the largest load [N, downward] on every sleeper in the
+  passage: the rail's share of the wheels as the beam and the bed distribute it. Plain data,
+  JSON state for checkpoints; fed every step with the replicated sleeper positions (identical on every
   rank), so every rank takes the same decisions.
 - `TrackWriter` writes ``/series`` (`pdem.format.schema.TRACK_SERIES`) and the per-sleeper rows
   of ``/track`` (settlement [m], ballast force on the sleeper, positive up [N]) together, one
   row of each per sample, and ``/passages`` (peak, permanent settlement and the gap under each
-  sleeper, `observables.box_gaps`). After a restart it cuts ``/series`` and ``/track`` to the
-  rows written up to the checkpoint and ``/passages`` to the passages closed by then.
+  sleeper, `observables.box_gaps`; with the beam the peak load on each sleeper, ``load_peak``).
+  After a restart it cuts ``/series`` and ``/track`` to the rows written up to the checkpoint
+  and ``/passages`` to the passages closed by then.
 - `write_force_record` writes ``/forces/<label>``: the normal force of every sleeper–ballast
   contact (with its sleeper) and the force of every ballast–ballast contact
   (`observables.contact_force_samples`).
@@ -37,7 +40,7 @@ class PassageTracker:
     ``ends[p]``, ``peaks[p]`` [s]: nominal end and peak instant of passage p (0-based);
     passage 0 starts where tracking starts."""
 
-    def __init__(self, ends, peaks, reference):
+    def __init__(self, ends, peaks, reference, loads=False):
         self.ends = [float(t) for t in ends]
         self.peaks = [float(t) for t in peaks]
         self.reference = [float(z) for z in reference]  # sleeper centre heights at the start [m]
@@ -45,6 +48,7 @@ class PassageTracker:
         self.t_start = None
         self.peak = None
         self.peak_seen = False
+        self.load_peak = [0.0] * len(self.reference) if loads else None  # [N] in the open passage
 
     @property
     def done(self):
@@ -59,14 +63,17 @@ class PassageTracker:
         self.peak = [float(s) for s in settlement]
         self.peak_seen = False
 
-    def update(self, t, settlement):
-        """Feed one step; returns the events it completes: "peak" (the peak instant of the open
-        passage is reached) and/or "end" (the passage is over; then ``closed()`` gives its
-        row and the next passage opens at this step)."""
+    def update(self, t, settlement, load=None):
+        """Feed one step (``load`` [N]: on every sleeper, if loads are followed); returns the
+        events it completes: "peak" (the peak instant of the open passage is reached) and/or
+        "end" (the passage is over; then ``closed()`` gives its row and the next passage opens
+        at this step)."""
         events = []
         if self.done:
             return events
         self.peak = [max(a, float(b)) for a, b in zip(self.peak, settlement)]
+        if self.load_peak is not None:
+            self.load_peak = [max(a, float(b)) for a, b in zip(self.load_peak, load)]
         if not self.peak_seen and t >= self.peaks[self.p]:
             self.peak_seen = True
             events.append("peak")
@@ -75,21 +82,26 @@ class PassageTracker:
         return events
 
     def close(self, t, settlement):
-        """The row of the open passage ending at t: (t_start, t_end, peak, permanent); opens
-        the next one."""
-        row = (self.t_start, float(t), np.array(self.peak), np.asarray(settlement, float).copy())
+        """The row of the open passage ending at t: (t_start, t_end, peak, permanent, load peak
+        or None); opens the next one."""
+        row = (self.t_start, float(t), np.array(self.peak), np.asarray(settlement, float).copy(),
+               None if self.load_peak is None else np.array(self.load_peak))
         self.p += 1
         self.start(t, settlement)
+        if self.load_peak is not None:
+            self.load_peak = [0.0] * len(self.load_peak)
         return row
 
     def state(self):
-        return {"ends": self.ends, "peaks": self.peaks, "reference": self.reference, "p": self.p,
-                "t_start": self.t_start, "peak": self.peak, "peak_seen": self.peak_seen}
+        out = {"ends": self.ends, "peaks": self.peaks, "reference": self.reference, "p": self.p,
+               "t_start": self.t_start, "peak": self.peak, "peak_seen": self.peak_seen}
+        return out if self.load_peak is None else {**out, "load_peak": self.load_peak}
 
     @classmethod
     def restore(cls, state):
-        tr = cls(state["ends"], state["peaks"], state["reference"])
+        tr = cls(state["ends"], state["peaks"], state["reference"], loads="load_peak" in state)
         tr.p, tr.t_start, tr.peak, tr.peak_seen = int(state["p"]), state["t_start"], state["peak"], state["peak_seen"]
+        tr.load_peak = state.get("load_peak")
         return tr
 
 
@@ -149,10 +161,10 @@ class TrackWriter:
             schema.append_track_rows(self.path, np.array(self.rows_s), np.array(self.rows_f))
             self.rows_s, self.rows_f = [], []
 
-    def passage(self, t_start, t_end, peak, permanent, gap):
+    def passage(self, t_start, t_end, peak, permanent, gap, load_peak=None):
         if self.active:
             self.flush()
-            schema.append_passages(self.path, t_start, t_end, peak, permanent, gap)
+            schema.append_passages(self.path, t_start, t_end, peak, permanent, gap, load_peak=load_peak)
 
     def close(self):
         self.flush()
