@@ -9,8 +9,8 @@ numpy and h5py only) does not load the engine, numba or mpi4py.
 from importlib import import_module
 
 # public name -> module (relative to this package) that defines it
-_PUBLIC = {"Scene": ".build.scene", "Simulation": ".simulation", "Material": ".build.materials", "InputError": ".errors",
-           "InstabilityError": ".errors", "__version__": ".version"}
+_PUBLIC = {"Scene": ".build.scene", "Simulation": ".simulation", "Material": ".build.materials",
+           "InputError": ".errors", "InstabilityError": ".errors", "__version__": ".version"}
 
 __all__ = list(_PUBLIC)
 
