@@ -84,9 +84,14 @@ def main(argv=None):
 
         from .driver.failures import run_guarded
         from .format.run import clear_run_info
-        from .parallel.comm import configure_threads, get_comm
+        from .parallel.comm import LaunchError, configure_threads, get_comm
 
-        comm = get_comm()
+        try:
+            comm = get_comm()
+        except LaunchError as exc:  # N copies of this process: one line, from the launcher's rank 0
+            if all(os.environ.get(v, "0") == "0" for v in _RANK_VARS):
+                sys.stderr.write(f"pdem: {exc}\n")
+            return EXIT_INPUT_ERROR
         out = args.out or str(Path("runs") / Path(args.scene).stem)
 
         def run():

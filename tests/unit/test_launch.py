@@ -1,11 +1,13 @@
 """How a simulation meets its ranks from outside pdem: the README's Python API under the venv's
-``mpiexec`` (``scene.build()`` and ``scene.build(MPI.COMM_WORLD)`` both decompose over every rank)."""
+``mpiexec`` (``scene.build()`` and ``scene.build(MPI.COMM_WORLD)`` both decompose over every rank),
+and a launcher that announces more tasks than MPI sees (refused with one line, exit status 2)."""
 import os
 import subprocess
 import sys
 
 import pytest
 
+from factories import TINY_DEPOSITION
 from pdem_cli import MPIEXEC, needs_mpiexec
 
 # the README's API on a lattice of 4 x 4 x 6 spheres (two ranks each own part), run for 20 steps
@@ -49,3 +51,14 @@ def test_readme_api_under_mpiexec_builds_one_decomposed_simulation(tmp_path, how
     assert [(rank, size) for rank, size, _, _ in rows] == [(0, 2), (1, 2)], r.stdout
     assert {total for *_, total in rows} == {96}, r.stdout
     assert all(0 < owned < 96 for _, _, owned, _ in rows) and sum(owned for _, _, owned, _ in rows) == 96, r.stdout
+
+
+@pytest.mark.parametrize("var", ["SLURM_STEP_NUM_TASKS", "OMPI_COMM_WORLD_SIZE"])
+def test_more_tasks_announced_than_mpi_sees_is_refused(tmp_path, var):
+    (tmp_path / "tiny.toml").write_text(TINY_DEPOSITION)
+    r = subprocess.run([sys.executable, "-m", "pdem", "run", str(tmp_path / "tiny.toml"), "--out", str(tmp_path / "o")],
+                       capture_output=True, text=True, timeout=600, env=child_env(**{var: "2"}))
+    assert r.returncode == 2, r.stdout + r.stderr
+    lines = [x for x in r.stderr.splitlines() if x.startswith("pdem")]  # (mpi4py may warn about Open MPI's variable)
+    assert len(lines) == 1 and lines[0].startswith(f"pdem: {var}=2: the launcher started 2 tasks"), r.stderr
+    assert "mpiexec -n 2" in lines[0] and "Traceback" not in r.stderr and not (tmp_path / "o").exists()
