@@ -443,10 +443,9 @@ def _launched_size():
     return None, 1
 
 
-def _launch_mismatch(var, n, why):
-    mpiexec = os.path.join(os.path.dirname(sys.executable), "mpiexec")
+def _launch_mismatch(var, n, why, fix):
     return LaunchError(f"{var}={n}: the launcher started {n} tasks but {why}, so each would run the whole job alone; "
-                       f"refused (likely srun with a PMI this MPI does not speak: launch with {mpiexec} -n {n})")
+                       f"refused ({fix})")
 
 
 def get_comm(comm=None):
@@ -474,12 +473,14 @@ def get_comm(comm=None):
         try:
             from mpi4py import MPI as mpi
         except ImportError:
-            raise _launch_mismatch(var, announced, "mpi4py is not installed (pip install pdem[mpi])") from None
+            raise _launch_mismatch(var, announced, "mpi4py is not installed", "pip install pdem[mpi]") from None
     world = mpi.COMM_WORLD
     if world.Get_size() > 1:
         return MpiComm(world)
     if announced > 1:
-        raise _launch_mismatch(var, announced, "MPI sees 1 rank")
+        mpiexec = os.path.join(os.path.dirname(sys.executable), "mpiexec")
+        raise _launch_mismatch(var, announced, "MPI sees 1 rank", "likely srun with a PMI this MPI does not speak: "
+                               f"launch with {mpiexec} -n {announced}")
     return SerialComm()
 
 

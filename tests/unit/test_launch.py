@@ -8,6 +8,7 @@ import sys
 import pytest
 
 from factories import TINY_DEPOSITION
+from pdem.parallel.comm import LaunchError, get_comm
 from pdem_cli import MPIEXEC, needs_mpiexec
 
 # the README's API on a lattice of 4 x 4 x 6 spheres (two ranks each own part), run for 20 steps
@@ -62,3 +63,13 @@ def test_more_tasks_announced_than_mpi_sees_is_refused(tmp_path, var):
     lines = [x for x in r.stderr.splitlines() if x.startswith("pdem")]  # (mpi4py may warn about Open MPI's variable)
     assert len(lines) == 1 and lines[0].startswith(f"pdem: {var}=2: the launcher started 2 tasks"), r.stderr
     assert "mpiexec -n 2" in lines[0] and "Traceback" not in r.stderr and not (tmp_path / "o").exists()
+
+
+def test_announced_ranks_without_mpi4py_are_refused(monkeypatch):
+    monkeypatch.setenv("SLURM_STEP_NUM_TASKS", "4")
+    for var in ("PMI_SIZE", "OMPI_COMM_WORLD_SIZE", "MV2_COMM_WORLD_SIZE"):
+        monkeypatch.delenv(var, raising=False)
+    monkeypatch.delitem(sys.modules, "mpi4py.MPI", raising=False)
+    monkeypatch.setitem(sys.modules, "mpi4py", None)  # import mpi4py fails
+    with pytest.raises(LaunchError, match=r"^SLURM_STEP_NUM_TASKS=4: .* mpi4py is not installed.*pdem\[mpi\]\)$"):
+        get_comm()
