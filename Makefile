@@ -24,7 +24,7 @@ $(VENV)/.done: requirements.lock pyproject.toml
 	$(VPY) -c "import site, os; open(os.path.join(site.getsitepackages()[0], 'pdem-src.pth'), 'w').write(os.getcwd() + '\n')"
 	touch $@
 
-# The main job: the default scene on its built-in defaults (see jobs/README.md).
+# The main job: the box test jobs/box_test.toml on 2 ranks (README.md, docs/box_test.md).
 run: venv
 	$(MPIEXEC) -n 2 $(VPY) -m pdem run jobs/box_test.toml --out runs/box_test --fresh
 

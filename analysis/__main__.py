@@ -21,7 +21,7 @@ from . import blast, grading, oedometer, run_summary, track
 from .stiffness import LOADING_WINDOW, UNLOADING_FRACTION
 from .summary import run_box
 
-PROG = "python -m analysis"
+PROG = f"python -m {__package__}"  # analysis (a checkout) or pdem_analysis (installed)
 EXIT_BAD_INPUT = 2
 
 

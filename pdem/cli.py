@@ -12,13 +12,20 @@ write failed (disk full) or memory ran out.
 After a successful run, rank 0 launches the post-processing the run declared in its files (a
 staged scene's run_info.json, `pdem.format.run`): ``python -m analysis summary OUT`` (in this
 process), which writes summary.txt, preparation.png and analysis/. Its exit status is printed;
-the run's stays.
+the run's stays. Without the optional packages it needs (``pip install pdem[analysis]``:
+matplotlib, scipy), it is skipped with a one-line note.
+
+The analysis package is the source folder ``analysis/`` in a checkout and ``pdem_analysis`` in an
+installed wheel (pyproject.toml); `analysis_package` names the one present.
 """
 import argparse
 import os
 import sys
+from importlib import import_module
+from importlib.util import find_spec
 
 from .errors import EXIT_INPUT_ERROR
+from .version import __version__
 
 # environment variables through which launchers give a process its rank (to print usage errors,
 # found before MPI is set up, on one rank only)
@@ -55,6 +62,7 @@ class _Parser(argparse.ArgumentParser):
 
 def main(argv=None):
     ap = _Parser(prog="pdem", description="pdem: parallel DEM for railway ballast")
+    ap.add_argument("--version", action="version", version=f"pdem {__version__}")
     sub = ap.add_subparsers(dest="command", required=True, parser_class=_Parser)
     r = sub.add_parser("run", help="run a scene file (TOML)")
     r.add_argument("scene", help="scene file, e.g. jobs/deposition.toml")
@@ -76,9 +84,14 @@ def main(argv=None):
 
         from .driver.failures import run_guarded
         from .format.run import clear_run_info
-        from .parallel.comm import configure_threads, get_comm
+        from .parallel.comm import LaunchError, configure_threads, get_comm
 
-        comm = get_comm()
+        try:
+            comm = get_comm()
+        except LaunchError as exc:  # N copies of this process: one line, from the launcher's rank 0
+            if all(os.environ.get(v, "0") == "0" for v in _RANK_VARS):
+                sys.stderr.write(f"pdem: {exc}\n")
+            return EXIT_INPUT_ERROR
         out = args.out or str(Path("runs") / Path(args.scene).stem)
 
         def run():
@@ -100,10 +113,23 @@ def post_process(out):
 
     if read_run_info(out) is None:
         return
-    from analysis.__main__ import main as analysis_main
+    package = analysis_package()
+    command = f"python -m {package} summary {out}"
+    try:
+        analysis_main = import_module(f"{package}.__main__").main
+        status = analysis_main(["summary", str(out)])
+    except ModuleNotFoundError as exc:
+        if exc.name is None or exc.name.split(".")[0] in ("pdem", package):
+            raise
+        print(f"post-processing skipped: {command} needs the Python package {exc.name.split('.')[0]} "
+              "(pip install pdem[analysis]); the run itself is complete", flush=True)
+        return
+    print(f"post-processing: {command}: exit status {status}", flush=True)
 
-    status = analysis_main(["summary", str(out)])
-    print(f"post-processing: python -m analysis summary {out}: exit status {status}", flush=True)
+
+def analysis_package():
+    """``pdem_analysis`` (installed from the wheel) or ``analysis`` (a source checkout)."""
+    return "pdem_analysis" if find_spec("pdem_analysis") is not None else "analysis"
 
 
 if __name__ == "__main__":

@@ -392,7 +392,9 @@ class Scene:
                              f"{pos[pi_[k]].tolist()} m (a repeated row?): no contact normal exists between them")
 
     def build(self, comm=None, domain=None):
-        """Create the `Simulation` (on `comm`'s ranks; default one rank)."""
+        """Create the `Simulation` on ``comm``'s ranks: a pdem communicator or an mpi4py one (e.g.
+        ``MPI.COMM_WORLD``); by default `pdem.parallel.get_comm` (every rank of an mpiexec launch,
+        else one)."""
         if len(self.materials) == 0:
             raise InputError("materials: the scene defines no material")
         cols = self.spheres()
@@ -410,10 +412,9 @@ class Scene:
         skin = s.skin if s.skin is not None else 0.25 * float(np.mean(cols["radius"]))
         bonds = self._bond_rows(cols, skin) if self._bonds else None
         if domain is None:
-            if comm is None:
-                from ..parallel.comm import SerialComm
+            from ..parallel.comm import get_comm
 
-                comm = SerialComm()
+            comm = get_comm(comm)
             if comm.size == 1:
                 domain = SerialDomain(comm)
             else:

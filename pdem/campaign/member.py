@@ -5,8 +5,8 @@ Owns `MemberProcess` (used by the local runner for several members at once, and 
 reached through its command line only:
 
     python -m pdem run OUT/<member>/scene.toml --out OUT/<member>              (1 rank, local)
-    <venv>/bin/mpiexec -n R python -m pdem run ...                              (R ranks, local)
-    srun --ntasks=R --cpus-per-task=T [launcher_args] python -m pdem run ...  (SLURM, default)
+    <venv>/bin/mpiexec -n R [launcher_args] python -m pdem run ...              (R ranks; SLURM default)
+    srun --ntasks=R --cpus-per-task=T [launcher_args] python -m pdem run ...  (SLURM, launcher = "srun")
 
 with NUMBA_NUM_THREADS = T, OMP_NUM_THREADS = 1. Running it again on the same directory resumes
 from its newest checkpoint. The member runs in a session of its own (a Ctrl-C at the terminal

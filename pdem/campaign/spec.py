@@ -17,7 +17,7 @@ tables). Tables of the campaign file:
     [[case]]    an explicit setting: name, the keys it sets, optional ranks and threads
     [local]     cores (of this machine used by ``pdem campaign run``; default: all it may use)
     [slurm]     time, partition, account, qos, signal_lead [s], max_running, launcher
-                ("srun" | "mpiexec"), launcher_args, options (extra sbatch options)
+                ("mpiexec": the venv's, the default | "srun"), launcher_args, options (extra sbatch options)
     [analysis]  defaults of ``python -m analysis campaign`` / ``error-vs-runtime``: quantities,
                 curves, reference (copied to the manifest, not read here)
 
@@ -45,7 +45,7 @@ SLURM_KEYS = {"time", "partition", "account", "qos", "signal_lead", "max_running
 TOP_KEYS = {"campaign", "set", "seeds", "grid", "case", "local", "slurm", "analysis"}
 LAUNCHERS = ("srun", "mpiexec")
 SLURM_DEFAULTS = {"time": "24:00:00", "partition": "", "account": "", "qos": "", "signal_lead": 300,
-                  "max_running": 0, "launcher": "srun", "launcher_args": [], "options": [], "job_name": ""}
+                  "max_running": 0, "launcher": "mpiexec", "launcher_args": [], "options": [], "job_name": ""}
 _NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.+=-]*$")
 
 

@@ -2,8 +2,9 @@
 
 Owns: ``SerialComm`` and ``MpiComm`` (the same small interface: rank, size, barrier, bcast,
 reductions, exact sums, row gathers, the neighbour exchange of a 1-D chain of slabs, abort),
-``get_comm`` (MPI only when launched under mpiexec/srun with more than one rank) and the numba
-thread count per rank.
+``get_comm`` (MPI only when launched under mpiexec/srun with more than one rank; `LaunchError`
+when the launcher announces N > 1 tasks but MPI sees one rank, instead of N silent serial runs)
+and the numba thread count per rank.
 
 Failures: ``agree_on_failure`` is how a rank that caught an error finds out whether every rank
 failed too (all of them reach it within a grace time: a non-blocking barrier on a private
@@ -30,8 +31,9 @@ import time
 import numpy as np
 
 from pdem import exactsum
+from pdem.errors import InputError
 
-__all__ = ["MpiComm", "SerialComm", "configure_threads", "get_comm", "threads_per_rank"]
+__all__ = ["LaunchError", "MpiComm", "SerialComm", "configure_threads", "get_comm", "threads_per_rank"]
 
 # Environment variables through which launchers announce the number of ranks.
 _SIZE_VARS = ("PMI_SIZE", "OMPI_COMM_WORLD_SIZE", "MV2_COMM_WORLD_SIZE", "SLURM_STEP_NUM_TASKS")
@@ -425,16 +427,25 @@ class MpiComm:
 
 
 # --------------------------------------------------------------------------- factory
+class LaunchError(InputError):
+    """The launcher started N > 1 tasks but MPI sees one rank in each (exit status 2)."""
+
+
 def _launched_size():
-    """Rank count announced by the launcher's environment (1 if none)."""
+    """(variable, rank count) announced by the launcher's environment; (None, 1) if none."""
     for var in _SIZE_VARS:
         value = os.environ.get(var)
         if value:
             try:
-                return int(value)
+                return var, int(value)
             except ValueError:
                 continue
-    return 1
+    return None, 1
+
+
+def _launch_mismatch(var, n, why, fix):
+    return LaunchError(f"{var}={n}: the launcher started {n} tasks but {why}, so each would run the whole job alone; "
+                       f"refused ({fix})")
 
 
 def get_comm(comm=None):
@@ -444,22 +455,32 @@ def get_comm(comm=None):
     ----------
     comm : None, SerialComm, MpiComm or an mpi4py communicator
         ``None`` detects: ``MpiComm(MPI.COMM_WORLD)`` if mpi4py is already initialised (e.g.
-        ``python -m mpi4py``) or a launcher (MPICH Hydra ``PMI_SIZE``, Open MPI, MVAPICH, srun)
-        announces more than one rank, and that world has more than one rank; otherwise
-        ``SerialComm()``.  mpi4py is imported only in those cases.
+        ``python -m mpi4py``) or a launcher (MPICH Hydra ``PMI_SIZE``, Open MPI, MVAPICH, srun's
+        ``SLURM_STEP_NUM_TASKS``) announces more than one rank, and that world has more than one
+        rank; otherwise ``SerialComm()``.  mpi4py is imported only in those cases. A launcher
+        that announces N > 1 ranks to a world of one (or without mpi4py) raises `LaunchError`.
+        (Not SLURM_NTASKS: a batch script has it and may run serial processes on purpose.)
     """
     if isinstance(comm, (SerialComm, MpiComm)):
         return comm
     if comm is not None:
         return MpiComm(comm)
+    var, announced = _launched_size()
     mpi = sys.modules.get("mpi4py.MPI")
     if mpi is None:
-        if _launched_size() <= 1:
+        if announced <= 1:
             return SerialComm()
-        from mpi4py import MPI as mpi
+        try:
+            from mpi4py import MPI as mpi
+        except ImportError:
+            raise _launch_mismatch(var, announced, "mpi4py is not installed", "pip install pdem[mpi]") from None
     world = mpi.COMM_WORLD
     if world.Get_size() > 1:
         return MpiComm(world)
+    if announced > 1:
+        mpiexec = os.path.join(os.path.dirname(sys.executable), "mpiexec")
+        raise _launch_mismatch(var, announced, "MPI sees 1 rank", "likely srun with a PMI this MPI does not speak: "
+                               f"launch with {mpiexec} -n {announced}")
     return SerialComm()
 
 

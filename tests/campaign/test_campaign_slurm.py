@@ -1,5 +1,7 @@
 """The SLURM job-array script of a campaign, run without a scheduler: fake ``srun``, ``scontrol``
-and ``sbatch`` shell scripts on PATH, SLURM_ARRAY_TASK_ID etc. in the environment.
+and ``sbatch`` shell scripts on PATH, SLURM_ARRAY_TASK_ID etc. in the environment (``launcher =
+"srun"``: the fake srun stands in for the allocation); and the single-run template
+jobs/templates/slurm.sbatch, the same template, run with the venv's mpiexec.
 
 The fake srun logs its arguments and plays pdem for the member it was given (``--out DIR``):
 per call, the next action of FAKE_PLAN_<member>: an exit status, ``wait`` (until SIGUSR1/SIGTERM,
@@ -12,8 +14,12 @@ import sys
 
 import h5py
 
-from campaign_helpers import pdem_campaign, write_campaign
-from pdem_cli import signal_when
+import pytest
+
+from campaign_helpers import ROOT, pdem_campaign, write_campaign
+from factories import TINY_DEPOSITION
+from pdem.campaign.slurm import run_script
+from pdem_cli import needs_mpiexec, signal_when
 
 FAKE_SRUN = r"""#!/usr/bin/env bash
 echo "srun $*" >> "$FAKE_LOG"
@@ -45,6 +51,7 @@ partition = "short"
 account = "ballast"
 signal_lead = 240
 max_running = 2
+launcher = "srun"
 launcher_args = ["--mpi=pmi2"]
 options = ["--mem-per-cpu=2G", "--constraint=cpu"]
 """
@@ -150,7 +157,7 @@ def test_real_pdem_through_srun_stops_and_resumes(tmp_path, tiny):
     """The fake srun runs the real ``pdem run`` (1 rank): USR1 -> checkpoint, exit 3, requeue; the
     requeued task resumes from the checkpoint and finishes. (20 000 steps: the signal passes
     through the fake srun and the member runner, and 2000 tiny steps can end before it arrives.)"""
-    p = write_campaign(tmp_path, '[set]\n"run.steps" = 20000\n[seeds]\nvalues = [5]\n')
+    p = write_campaign(tmp_path, '[set]\n"run.steps" = 20000\n[seeds]\nvalues = [5]\n[slurm]\nlauncher = "srun"\n')
     assert pdem_campaign("slurm", p).returncode == 0
     out = tmp_path / "runs" / "camp"
     script = out / "campaign.sbatch"
@@ -167,3 +174,34 @@ def test_real_pdem_through_srun_stops_and_resumes(tmp_path, tiny):
     with h5py.File(out / "seed-5" / "results.h5") as f:
         assert f["series"]["step"][-1] == 20000
     assert sys.executable in script.read_text()
+
+
+def test_one_template_the_venvs_mpiexec_and_the_numba_cache_beside_the_runs(tmp_path, tiny):
+    """jobs/templates/slurm.sbatch is `run_script()`; a campaign's default script launches like it."""
+    assert (ROOT / "jobs" / "templates" / "slurm.sbatch").read_text() == run_script()
+    p = write_campaign(tmp_path, "[seeds]\nvalues = [1]\n")
+    assert pdem_campaign("slurm", p).returncode == 0
+    text = (tmp_path / "runs" / "camp" / "campaign.sbatch").read_text()
+    assert '"$PYTHON" -m pdem campaign member "$CAMPAIGN_DIR" "$member" --launcher mpiexec &' in text.splitlines()
+    assert 'export NUMBA_CACHE_DIR="${NUMBA_CACHE_DIR:-$CAMPAIGN_DIR/.numba_cache}"' in text.splitlines()
+    assert 'export NUMBA_CACHE_DIR="${NUMBA_CACHE_DIR:-$(dirname "$OUT")/.numba_cache}"' in run_script().splitlines()
+    assert "export NUMBA_NUM_THREADS=1 OMP_NUM_THREADS=1 MPLBACKEND=Agg" in text.splitlines()
+    trap = "trap 'kill -USR1 $pid 2>/dev/null' USR1"
+    assert trap in text.splitlines() and trap in run_script().splitlines()
+
+
+@needs_mpiexec
+@pytest.mark.slow
+def test_single_run_template_runs_on_the_allocations_ranks(tmp_path):
+    """The template with SLURM's variables set and a fake scontrol: the venv's mpiexec starts
+    SLURM_NTASKS = 2 ranks, and numba's cache goes to the run folder's parent (compiled anew)."""
+    fake_bin(tmp_path)
+    (tmp_path / "tiny.toml").write_text(TINY_DEPOSITION)
+    env = {k: v for k, v in slurm_env(tmp_path, 0).items() if k != "NUMBA_CACHE_DIR"}
+    env.update(SLURM_NTASKS="2", SCENE="tiny.toml", OUT="runs/t", PDEM_PYTHON=sys.executable,
+               PYTHONPATH=os.pathsep.join(sys.path))
+    r = subprocess.run(["bash", str(ROOT / "jobs" / "templates" / "slurm.sbatch")], capture_output=True, text=True,
+                       env=env, cwd=tmp_path, timeout=900)
+    assert r.returncode == 0, r.stdout[-3000:] + r.stderr[-3000:]
+    assert "on 2 rank(s)" in r.stdout and (tmp_path / "runs" / "t" / "results.h5").exists()
+    assert any((tmp_path / "runs" / ".numba_cache").iterdir()) and fake_log(tmp_path) == []
