@@ -27,14 +27,17 @@ _RANK_VARS = ("PMI_RANK", "OMPI_COMM_WORLD_RANK", "MV2_COMM_WORLD_RANK", "SLURM_
 
 def run_file(path, out, steps=None, fresh=False, comm=None):
     """Run the scene file ``path`` into ``out`` on this process's ranks; returns the exit status
-    (exceptions propagate: `pdem.driver.failures.run_guarded` turns them into statuses)."""
+    (exceptions propagate: `pdem.driver.failures.run_guarded` turns them into statuses). First
+    of all, the ranks agree on their input (`pdem.driver.preflight.agree_on_input`)."""
     from .build.config import load_toml
     from .driver.plain import run_scene_file
     from .parallel.comm import get_comm
     from .scenes import find
     from .build.validate import number
+    from .driver.preflight import agree_on_input
 
     comm = get_comm(comm)
+    agree_on_input(comm, path, {"out": str(out), "steps": steps, "fresh": bool(fresh)})
     if steps is not None:
         steps = number("--steps", steps, 0, integer=True, allow="an integer >= 0 (the total steps of the run)")
     doc = load_toml(path)

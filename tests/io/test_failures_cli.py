@@ -7,6 +7,8 @@ ranks (subprocesses through the real command line; docs/reliability.md).
 - bad input and errors every rank raises: printed once, status 2;
 - runaway runs (a shot into a wall, dt = 1 s): status 4 naming the body, never 0;
 - too many ranks for the slabs: status 2 with the largest usable count;
+- ranks launched on different scene files or arguments (an MPMD launch): status 2 at start,
+  one line naming the rank, never a hang;
 - output failures: --out a file or under a file, a damaged results.h5 on resume (refused on
   every rank together), a full disk (status 5, one line, never a segfault).
 Fault injection: tests/tools/inject_fault.py (the real CLI with one rank's step raising).
@@ -86,6 +88,11 @@ def run(n_ranks, argv, tmp_path, env=None, tool=None, timeout=HUNG_AFTER):
     cmd = [sys.executable] + ([str(INJECT), *tool, "--"] if tool else ["-m", "pdem"]) + list(argv)
     if n_ranks > 1:
         cmd = [str(MPIEXEC), "-n", str(n_ranks)] + cmd
+    return run_cmd(cmd, tmp_path, env, timeout)
+
+
+def run_cmd(cmd, tmp_path, env=None, timeout=HUNG_AFTER):
+    """(returncode, stdout, stderr) of ``cmd`` in ``tmp_path``, killed after ``timeout`` s (TimeoutExpired)."""
     e = dict(os.environ, OMP_NUM_THREADS="1", NUMBA_NUM_THREADS="1", **(env or {}))
     r = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, env=e, cwd=tmp_path, check=False)
     return r.returncode, r.stdout, r.stderr
@@ -167,6 +174,30 @@ def test_output_directory_problems(tmp_path, n_ranks):
         assert rc == 2 and len(lines) == 1 and "Traceback" not in err, (out, rc, err[-2000:])
         for w in words:
             assert w in lines[0], lines
+
+
+@pytest.mark.parametrize("n_ranks", [2, 3])
+@pytest.mark.parametrize("differ, words", [
+    ("file", ["read a different scene file"]),
+    ("args", ["was given different arguments"]),
+])
+def test_ranks_that_disagree_on_their_input_stop_at_start(tmp_path, n_ranks, differ, words):
+    """An MPMD launch (mpiexec -n N-1 pdem run A : -n 1 pdem run B): the last rank reads another
+    scene file (another seed: it would build other spheres and the ranks would wait on each
+    other forever) or is given another --steps. Every rank stops at start: status 2, one line
+    naming that rank; a hung job is killed after HUNG_AFTER (TimeoutExpired fails the test)."""
+    a = scene(tmp_path)
+    b = scene(tmp_path, SCENE.replace("seed = 1", "seed = 2"), name="other.toml")
+    pdem = [sys.executable, "-m", "pdem", "run"]
+    last = [str(b), "--out", "out"] if differ == "file" else [str(a), "--out", "out", "--steps", "150"]
+    cmd = [str(MPIEXEC), "-n", str(n_ranks - 1), *pdem, str(a), "--out", "out", ":", "-n", "1", *pdem, *last]
+    rc, _, err = run_cmd(cmd, tmp_path)
+    lines = pdem_lines(err)
+    assert rc == 2 and len(lines) == 1 and "Traceback" not in err, (rc, err[-2000:])
+    assert f"ranks disagree on their input: rank {n_ranks - 1} " in lines[0], lines
+    for w in words:
+        assert w in lines[0], lines
+    assert not (tmp_path / "out").exists()  # stopped before any work
 
 
 def test_negative_steps_refused(tmp_path):

@@ -1,0 +1,47 @@
+"""Checks at the start of a run, before any work, that no rank could pass alone.
+
+Owns:
+
+- `agree_on_input`: every rank hashes (sha256) the bytes of the scene file it reads and the
+  command-line arguments that shape the run (``--out``, ``--steps``, ``--fresh``); one gather of
+  the digests (`Comm.allgather_rows`, 64 bytes per rank) and every rank compares them with rank
+  0's. Ranks that disagree (an MPMD launch, a file changed between two ranks reading it) would
+  otherwise build different scenes and wait on each other forever in a collective; here every
+  rank raises the same one-line `InputError` together (exit status 2, printed once).
+"""
+import hashlib
+import json
+
+import numpy as np
+
+from ..errors import InputError
+
+
+def input_digests(path, args):
+    """sha256 of the scene file's bytes (of the error, if it cannot be read: the parse reports
+    it) and of ``args`` (a JSON-able dict of the arguments that shape the run), 32 bytes each."""
+    try:
+        with open(path, "rb") as fh:
+            scene = hashlib.sha256(fh.read()).digest()
+    except OSError as exc:
+        scene = hashlib.sha256(f"unreadable: {type(exc).__name__}".encode()).digest()
+    given = hashlib.sha256(json.dumps(args, sort_keys=True, default=str).encode()).digest()
+    return scene, given
+
+
+def agree_on_input(comm, path, args):
+    """Raise InputError on every rank, together, if any rank's scene file bytes or arguments
+    (``args``, e.g. {"out": ..., "steps": ..., "fresh": ...}) differ from rank 0's."""
+    scene, given = input_digests(path, args)
+    row = np.frombuffer(scene + given, dtype=np.uint8).reshape(1, 64)
+    table = comm.allgather_rows(row)
+    for what, cols in (("read a different scene file", slice(0, 32)),
+                       ("was given different arguments (--out, --steps, --fresh)", slice(32, 64))):
+        differ = [r for r in range(table.shape[0]) if not np.array_equal(table[r, cols], table[0, cols])]
+        if differ:
+            k = differ[0]
+            mine, first = (table[r, cols].tobytes().hex()[:16] for r in (k, 0))
+            more = f" (and {len(differ) - 1} more rank(s))" if len(differ) > 1 else ""
+            raise InputError(f"ranks disagree on their input: rank {k} {what} (digest {mine} vs rank 0's {first})"
+                             f"{more}; launch every rank with the same scene file and arguments")
+
