@@ -34,12 +34,13 @@ def run_file(path, out, steps=None, fresh=False, comm=None):
     from .parallel.comm import get_comm
     from .scenes import find
     from .build.validate import number
-    from .driver.preflight import agree_on_input
+    from .driver.preflight import agree_on_input, check_run_length
 
     comm = get_comm(comm)
     agree_on_input(comm, path, {"out": str(out), "steps": steps, "fresh": bool(fresh)})
     if steps is not None:
         steps = number("--steps", steps, 0, integer=True, allow="an integer >= 0 (the total steps of the run)")
+        check_run_length(f"--steps = {steps}", steps)
     doc = load_toml(path)
     _, scene = find(doc)
     if scene is not None:

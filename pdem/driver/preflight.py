@@ -8,6 +8,12 @@ Owns:
   0's. Ranks that disagree (an MPMD launch, a file changed between two ranks reading it) would
   otherwise build different scenes and wait on each other forever in a collective; here every
   rank raises the same one-line `InputError` together (exit status 2, printed once).
+- `check_run_length`: a run whose requested length no run could reach is refused before it
+  starts: more than `MAX_WALL_S` (100 years) at `MIN_STEP_S` per step, i.e. more than
+  `MAX_STEPS` steps. `MIN_STEP_S` (10 µs) is a floor under the wall time of any pdem step: the
+  smallest scene (two spheres, one core) steps in 28 µs on the 2-core development VM. The
+  decision reads only numbers every rank has (a step count, or a stage's simulated time and
+  time step), so every rank decides the same.
 """
 import hashlib
 import json
@@ -15,6 +21,10 @@ import json
 import numpy as np
 
 from ..errors import InputError
+
+MIN_STEP_S = 1e-5  # [s] a floor under the wall time of one step of any pdem run
+MAX_WALL_S = 100 * 365.25 * 86400.0  # [s] 100 years
+MAX_STEPS = int(MAX_WALL_S / MIN_STEP_S)  # 3.2e14 steps
 
 
 def input_digests(path, args):
@@ -45,3 +55,12 @@ def agree_on_input(comm, path, args):
             raise InputError(f"ranks disagree on their input: rank {k} {what} (digest {mine} vs rank 0's {first})"
                              f"{more}; launch every rank with the same scene file and arguments")
 
+
+
+def check_run_length(field, steps):
+    """Refuse (one-line InputError starting with ``field``, e.g. "run.steps = 10**15") a run of
+    ``steps`` steps: more than 100 years even at `MIN_STEP_S` per step."""
+    if steps > MAX_STEPS:
+        years = steps * MIN_STEP_S / (365.25 * 86400.0)
+        raise InputError(f"{field}: {steps:.3g} steps would take at least {years:.3g} years (at {MIN_STEP_S * 1e6:g} "
+                         f"µs per step, less than any pdem step costs): at most {MAX_STEPS:.3g} steps can be run")

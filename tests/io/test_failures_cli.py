@@ -9,6 +9,8 @@ ranks (subprocesses through the real command line; docs/reliability.md).
 - too many ranks for the slabs: status 2 with the largest usable count;
 - ranks launched on different scene files or arguments (an MPMD launch): status 2 at start,
   one line naming the rank, never a hang;
+- a run whose requested length no run could reach (run.steps, --steps, a stage's end time):
+  status 2 at start, one line naming the field;
 - output failures: --out a file or under a file, a damaged results.h5 on resume (refused on
   every rank together), a full disk (status 5, one line, never a segfault).
 Fault injection: tests/tools/inject_fault.py (the real CLI with one rank's step raising).
@@ -198,6 +200,29 @@ def test_ranks_that_disagree_on_their_input_stop_at_start(tmp_path, n_ranks, dif
     for w in words:
         assert w in lines[0], lines
     assert not (tmp_path / "out").exists()  # stopped before any work
+
+
+@pytest.mark.parametrize("n_ranks", [1, 2])
+@pytest.mark.parametrize("how", ["run.steps", "--steps", "stage"])
+def test_absurd_run_length_refused_at_start(tmp_path, n_ranks, how):
+    """10**15 steps (centuries at any step cost: pdem.driver.preflight.MAX_STEPS) asked by
+    run.steps, by --steps, or by a stage's end (the oedometer's pour settles up to 1e12 s):
+    status 2, one line naming the field, before any step (a plain run: before its output)."""
+    from factories import oedometer_ci_doc, toml_text
+
+    s = scene(tmp_path, SCENE.replace("steps = 200", "steps = 1000000000000000") if how == "run.steps" else SCENE)
+    extra, words = [], [f"{how} = 1000000000000000: 1e+15 steps would take at least 317 years"]
+    if how == "--steps":
+        extra = ["--steps", "1000000000000000"]
+    elif how == "stage":
+        s = scene(tmp_path, toml_text(oedometer_ci_doc(settle_max_time=1e12)))
+        words = ["stage pour: its end at t = 1e+12 s at dt =", "1e+15 steps"]
+    rc, _, err = run(n_ranks, ["run", str(s), "--out", "out", *extra], tmp_path)
+    lines = pdem_lines(err)
+    assert rc == 2 and len(lines) == 1 and "Traceback" not in err, (rc, err[-2000:])
+    for w in words:
+        assert w in lines[0], lines
+    assert how == "stage" or not (tmp_path / "out").exists()
 
 
 def test_negative_steps_refused(tmp_path):
