@@ -79,7 +79,6 @@ def main(argv=None):
         from pathlib import Path
 
         from .driver.failures import run_guarded
-        from .format.run import clear_run_info
         from .parallel.comm import configure_threads, get_comm
 
         comm = get_comm()
@@ -87,8 +86,6 @@ def main(argv=None):
 
         def run():
             configure_threads(comm)
-            if comm.rank == 0:  # only a run that completes leaves its account
-                clear_run_info(out)
             return run_file(args.scene, out, steps=args.steps, fresh=args.fresh, comm=comm)
 
         status = run_guarded(comm, run)

@@ -11,7 +11,7 @@ ranks (subprocesses through the real command line; docs/reliability.md).
   one line naming the rank, never a hang;
 - a run whose requested length no run could reach (run.steps, --steps, a stage's end time):
   status 2 at start, one line naming the field;
-- output failures: --out a file or under a file, a damaged results.h5 on resume (refused on
+- output failures: --out a file or under a file, its checkpoints folder unusable, a damaged results.h5 on resume (refused on
   every rank together), a full disk (status 5, one line, never a segfault).
 Fault injection: tests/tools/inject_fault.py (the real CLI with one rank's step raising).
 """
@@ -164,16 +164,26 @@ def test_bad_input_once_status_2(tmp_path, n_ranks, edit, words):
 
 @pytest.mark.parametrize("n_ranks", [1, 2])
 def test_output_directory_problems(tmp_path, n_ranks):
+    """--out a file, under a file, /dev/null; its checkpoints/ a file or a folder that cannot be
+    created: status 2 and one line naming the path at start (the checkpoints folder was found
+    only at the first checkpoint, after the work, as a failed write: status 5)."""
     s = scene(tmp_path)
     (tmp_path / "afile").write_text("x")
+    (tmp_path / "ck_file").mkdir()
+    (tmp_path / "ck_file" / "checkpoints").write_text("x")
+    (tmp_path / "ck_link").mkdir()
+    (tmp_path / "ck_link" / "checkpoints").symlink_to("/proc/self/no-such-folder")  # a folder nobody can create
     for out, words in (
         ("afile", ["--out afile", "not a directory"]),
         ("afile/sub", ["--out afile/sub", "Not a directory"]),
         ("/dev/null", ["--out /dev/null", "not a directory"]),
+        ("ck_file", ["--out ck_file: its checkpoints folder ck_file/checkpoints exists and is not a directory"]),
+        ("ck_link", ["--out ck_link: its checkpoints folder ck_link/checkpoints cannot be created or written"]),
     ):
-        rc, _, err = run(n_ranks, ["run", str(s), "--out", out], tmp_path)
+        rc, out_text, err = run(n_ranks, ["run", str(s), "--out", out], tmp_path)
         lines = pdem_lines(err)
         assert rc == 2 and len(lines) == 1 and "Traceback" not in err, (out, rc, err[-2000:])
+        assert "step" not in out_text  # found at start, before the scene is built or a step is made
         for w in words:
             assert w in lines[0], lines
 
