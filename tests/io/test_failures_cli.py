@@ -11,8 +11,10 @@ ranks (subprocesses through the real command line; docs/reliability.md).
   one line naming the rank, never a hang;
 - a run whose requested length no run could reach (run.steps, --steps, a stage's end time):
   status 2 at start, one line naming the field;
-- output failures: --out a file or under a file, its checkpoints folder unusable, a damaged results.h5 on resume (refused on
-  every rank together), a full disk (status 5, one line, never a segfault).
+- output failures: --out a file or under a file, its checkpoints folder unusable, a damaged
+  results.h5 on resume (refused on every rank together), a full disk (status 5, one line, never
+  a segfault);
+- a campaign file or its base scene that is a folder or not text: status 2, one line.
 Fault injection: tests/tools/inject_fault.py (the real CLI with one rank's step raising).
 """
 import os
@@ -241,6 +243,26 @@ def test_negative_steps_refused(tmp_path):
     assert rc == 2 and pdem_lines(err) == [
         "pdem: error: --steps = -5: must be an integer >= 0 (the total steps of the run)"
     ]
+
+
+@pytest.mark.parametrize("command", ["expand", "run", "status"])
+def test_campaign_file_or_base_scene_a_folder_or_binary(tmp_path, command):
+    """`pdem campaign run DIR`, a binary campaign file, a base scene that is a folder or binary:
+    one line naming the file, status 2, no traceback (were a traceback each)."""
+    folder = tmp_path / "folder"
+    folder.mkdir()
+    (tmp_path / "binary.toml").write_bytes(bytes(range(256)))
+    (tmp_path / "base_folder.toml").write_text('[campaign]\nbase = "folder"\n[seeds]\nvalues = [1]\n')
+    (tmp_path / "base_binary.toml").write_text('[campaign]\nbase = "binary.toml"\n[seeds]\nvalues = [1]\n')
+    cases = [("binary.toml", "binary.toml: not a text file in UTF-8 (a TOML campaign file is)"),
+             ("base_folder.toml", f"campaign.base = 'folder': {folder}: is a directory, not a base scene file"),
+             ("base_binary.toml", "campaign.base = 'binary.toml': ")]
+    if command != "status":  # status reads a folder as a campaign's folder (its campaign.json)
+        cases.append(("folder", "folder: is a directory, not a campaign file"))
+    for name, words in cases:
+        rc, _, err = run(1, ["campaign", command, name], tmp_path)
+        assert rc == 2 and "Traceback" not in err, (name, rc, err[-2000:])
+        assert pdem_lines(err) == [err.strip()] and words in err, (name, err)
 
 
 @pytest.mark.parametrize("n_ranks", [1, 2])
