@@ -164,7 +164,7 @@ def test_bad_input_once_status_2(tmp_path, n_ranks, edit, words):
         assert w in lines[0], lines
 
 
-@pytest.mark.parametrize("n_ranks", [1, 2])
+@pytest.mark.parametrize("n_ranks", [1, 2, 3])
 def test_output_directory_problems(tmp_path, n_ranks):
     """--out a file, under a file, /dev/null; its checkpoints/ a file or a folder that cannot be
     created: status 2 and one line naming the path at start (the checkpoints folder was found
@@ -214,7 +214,7 @@ def test_ranks_that_disagree_on_their_input_stop_at_start(tmp_path, n_ranks, dif
     assert not (tmp_path / "out").exists()  # stopped before any work
 
 
-@pytest.mark.parametrize("n_ranks", [1, 2])
+@pytest.mark.parametrize("n_ranks", [1, 2, 3])
 @pytest.mark.parametrize("how", ["run.steps", "--steps", "stage"])
 def test_absurd_run_length_refused_at_start(tmp_path, n_ranks, how):
     """10**15 steps (centuries at any step cost: pdem.driver.preflight.MAX_STEPS) asked by
