@@ -56,7 +56,6 @@ def agree_on_input(comm, path, args):
                              f"{more}; launch every rank with the same scene file and arguments")
 
 
-
 def check_run_length(field, steps):
     """Refuse (one-line InputError starting with ``field``, e.g. "run.steps = 10**15") a run of
     ``steps`` steps: more than 100 years even at `MIN_STEP_S` per step."""
