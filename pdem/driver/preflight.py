@@ -7,7 +7,9 @@ Owns:
   the digests (`Comm.allgather_rows`, 64 bytes per rank) and every rank compares them with rank
   0's. Ranks that disagree (an MPMD launch, a file changed between two ranks reading it) would
   otherwise build different scenes and wait on each other forever in a collective; here every
-  rank raises the same one-line `InputError` together (exit status 2, printed once).
+  rank raises the same one-line `InputError` together (exit status 2, printed once). (The scene
+  is parsed from a second read of the file: a file changed on one rank between its two reads,
+  microseconds apart, is not caught.)
 - `check_run_length`: a run whose requested length no run could reach is refused before it
   starts: more than `MAX_WALL_S` (100 years) at `MIN_STEP_S` per step, i.e. more than
   `MAX_STEPS` steps. `MIN_STEP_S` (10 µs) is a floor under the wall time of any pdem step: the
