@@ -34,16 +34,20 @@ _RANK_VARS = ("PMI_RANK", "OMPI_COMM_WORLD_RANK", "MV2_COMM_WORLD_RANK", "SLURM_
 
 def run_file(path, out, steps=None, fresh=False, comm=None):
     """Run the scene file ``path`` into ``out`` on this process's ranks; returns the exit status
-    (exceptions propagate: `pdem.driver.failures.run_guarded` turns them into statuses)."""
+    (exceptions propagate: `pdem.driver.failures.run_guarded` turns them into statuses). First
+    of all, the ranks agree on their input (`pdem.driver.preflight.agree_on_input`)."""
     from .build.config import load_toml
     from .driver.plain import run_scene_file
     from .parallel.comm import get_comm
     from .scenes import find
     from .build.validate import number
+    from .driver.preflight import agree_on_input, check_run_length
 
     comm = get_comm(comm)
+    agree_on_input(comm, path, {"out": str(out), "steps": steps, "fresh": bool(fresh)})
     if steps is not None:
         steps = number("--steps", steps, 0, integer=True, allow="an integer >= 0 (the total steps of the run)")
+        check_run_length(f"--steps = {steps}", steps)
     doc = load_toml(path)
     _, scene = find(doc)
     if scene is not None:
@@ -83,7 +87,6 @@ def main(argv=None):
         from pathlib import Path
 
         from .driver.failures import run_guarded
-        from .format.run import clear_run_info
         from .parallel.comm import LaunchError, configure_threads, get_comm
 
         try:
@@ -96,8 +99,6 @@ def main(argv=None):
 
         def run():
             configure_threads(comm)
-            if comm.rank == 0:  # only a run that completes leaves its account
-                clear_run_info(out)
             return run_file(args.scene, out, steps=args.steps, fresh=args.fresh, comm=comm)
 
         status = run_guarded(comm, run)

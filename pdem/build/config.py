@@ -70,23 +70,24 @@ def _table_list(where, value):
     return value
 
 
-def load_toml(path):
-    """The parsed scene file; a missing, unreadable or malformed file is one InputError line."""
+def load_toml(path, what="scene file"):
+    """The parsed TOML file ``path`` (a ``what``: a scene file, a campaign file); a missing,
+    unreadable, binary or malformed file, or a directory, is one InputError line."""
     try:
         with open(path, "rb") as fh:
             return tomllib.load(fh)
     except FileNotFoundError:
-        raise InputError(f"{path}: scene file not found") from None
+        raise InputError(f"{path}: {what} not found") from None
     except IsADirectoryError:
-        raise InputError(f"{path}: is a directory, not a scene file") from None
+        raise InputError(f"{path}: is a directory, not a {what}") from None
     except PermissionError:
-        raise InputError(f"{path}: cannot read the scene file (permission denied)") from None
+        raise InputError(f"{path}: cannot read the {what} (permission denied)") from None
     except UnicodeDecodeError:
-        raise InputError(f"{path}: not a text file in UTF-8 (a TOML scene file is)") from None
+        raise InputError(f"{path}: not a text file in UTF-8 (a TOML {what} is)") from None
     except tomllib.TOMLDecodeError as exc:
         raise InputError(f"{path}: not valid TOML ({exc})") from None
     except OSError as exc:
-        raise InputError(f"{path}: cannot read the scene file ({exc.strerror or exc})") from None
+        raise InputError(f"{path}: cannot read the {what} ({exc.strerror or exc})") from None
 
 
 def run_settings(doc):

@@ -19,11 +19,12 @@ import os
 import socket
 from pathlib import Path
 
+from ..errors import EXIT_CHECKPOINTED_ON_SIGNAL, EXIT_DONE
 from ..format.campaign import ATTEMPT_MARK, LOCK, LOG, RUN, read_run
 from .layout import json_text, write_text_if_changed
 
 STATES = ("done", "running", "stopped", "failed", "pending")
-EXIT_DONE, EXIT_STOPPED = 0, 3
+EXIT_STOPPED = EXIT_CHECKPOINTED_ON_SIGNAL
 
 
 def now():

@@ -30,10 +30,10 @@ module (the check is delegated).
 import itertools
 import math
 import re
-import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from ..build.config import load_toml
 from ..errors import InputError
 from .validate import check_member
 
@@ -197,13 +197,7 @@ def load_campaign(path, out=None):
     """Parse and check a campaign file and expand it (members checked). ``out`` overrides
     [campaign] out. Raises InputError with one line."""
     path = Path(path)
-    try:
-        with open(path, "rb") as fh:
-            raw = tomllib.load(fh)
-    except FileNotFoundError:
-        raise InputError(f"{path}: campaign file not found") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise InputError(f"{path}: not valid TOML ({exc})") from None
+    raw = load_toml(path, "campaign file")
     _check_keys(path, "campaign file", raw, TOP_KEYS)
     head = raw.get("campaign", {})
     _check_keys(path, "campaign", head, CAMPAIGN_KEYS)
@@ -214,12 +208,9 @@ def load_campaign(path, out=None):
         raise _err(path, f"campaign.name = {name!r}: must be letters, digits, and _ . + = - (no spaces or /)")
     base = (path.parent / head["base"]).resolve() if not Path(head["base"]).is_absolute() else Path(head["base"])
     try:
-        with open(base, "rb") as fh:
-            base_doc = tomllib.load(fh)
-    except FileNotFoundError:
-        raise _err(path, f"campaign.base = {head['base']!r}: scene file {base} not found") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise _err(path, f"campaign.base: {base} is not valid TOML ({exc})") from None
+        base_doc = load_toml(base, "base scene file")
+    except InputError as exc:
+        raise _err(path, f"campaign.base = {head['base']!r}: {exc}") from None
     ranks = _positive_int(path, "campaign.ranks", head.get("ranks", 1))
     threads = _positive_int(path, "campaign.threads", head.get("threads", 1))
     out_dir = Path(out) if out is not None else Path(head.get("out", str(Path("runs") / name)))

@@ -1,7 +1,7 @@
 """How a run ends when something fails: one line, one exit status, once, and never a hung job.
 
-Owns the exit statuses of `pdem run` and the handling of any exception that reaches the top of a
-run, on any rank (`run_guarded`):
+Owns the mapping of failures to the exit statuses of `pdem run` (`classify`) and the handling of
+any exception that reaches the top of a run, on any rank (`run_guarded`):
 
     0  done                          3  stopped on SIGTERM/SIGUSR1 after a checkpoint
     1  internal error (a bug: the    4  unstable or runaway: the state blew up, a body moved
@@ -10,6 +10,11 @@ run, on any rank (`run_guarded`):
     2  bad input: scene file, command line, output directory, a checkpoint or results file
        that cannot be continued from (`InputError`, `CheckpointError`, `ResultsFileError`)
     5  the system failed the run: a write failed (disk full, file system gone), out of memory
+       (`MemoryError`, `OSError`, `CheckpointWriteError`)
+  130  interrupted (KeyboardInterrupt: SIGINT, Ctrl-C)
+
+The numbers are the constants of `pdem.errors`; `classify` is the one mapping from exceptions
+to them (tests/io/test_exit_statuses.py holds one test per class).
 
 Which rank prints: every exception is turned into (status, one line). The failing rank then
 asks the others whether they failed too (`Comm.agree_on_failure`, a non-blocking barrier with a
@@ -32,6 +37,7 @@ from ..errors import (
     EXIT_INPUT_ERROR,
     EXIT_INSTABILITY,
     EXIT_INTERNAL_ERROR,
+    EXIT_INTERRUPTED,
     EXIT_SYSTEM_ERROR,
     InputError,
     InstabilityError,
@@ -67,7 +73,7 @@ def classify(exc):
     if isinstance(exc, OSError):
         return EXIT_SYSTEM_ERROR, f"error: {_os_error(exc)}", False
     if isinstance(exc, KeyboardInterrupt):
-        return 130, "interrupted", False
+        return EXIT_INTERRUPTED, "interrupted", False
     return EXIT_INTERNAL_ERROR, f"internal error: {type(exc).__name__}: {_one_line(exc)}", True
 
 

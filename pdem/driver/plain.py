@@ -25,6 +25,7 @@ from ..io.snapshots import SnapshotWriter
 from . import observables
 from .fragments import FragmentRecorder
 from .results import finite_row, series_writer, write_root_attrs
+from .preflight import check_run_length
 from .runloop import RunLoop, prepare_output, resume_point
 
 
@@ -47,6 +48,8 @@ def run_scene_file(path, doc, out_dir, comm, steps=None, fresh=False):
     on the schedule of `RunLoop`, on SIGTERM/SIGUSR1 (then the exit status is
     EXIT_CHECKPOINTED_ON_SIGNAL) and at the end."""
     scene, run = scene_from_dict(doc), run_settings(doc)
+    if steps is None:
+        check_run_length(f"run.steps = {run['steps']}", run["steps"])
     out = prepare_output(comm, out_dir)
     t_start = _time.perf_counter()
     loop = RunLoop(comm, out, run, path, Path(path).read_text())

@@ -14,6 +14,7 @@ from pathlib import Path
 
 from ..checks.diagnostics import check_finite
 from ..errors import InputError, InstabilityError
+from ..format.run import clear_run_info
 from ..io.checkpoint import (
     CheckpointError,
     find_resume_checkpoint,
@@ -189,27 +190,39 @@ class RunLoop:
 
 
 def prepare_output(comm, out):
-    """The output directory ``out``, created if missing and checked writable by rank 0; every
-    rank raises the same one-line InputError if it cannot be used."""
+    """The output directory ``out`` and its checkpoints/ folder, created if missing and checked
+    writable by rank 0 (a probe file written and removed in each) before any work; every rank
+    raises the same one-line InputError if they cannot be used (bad input found at start, not a
+    failed write after the work). The account of an earlier run (run_info.json) is removed."""
     out = Path(out)
     problem = _unusable_output(out) if comm.rank == 0 else None
     problem = comm.bcast(problem)
     if problem:
         raise InputError(f"--out {out}: {problem}")
+    if comm.rank == 0:  # only a run that completes leaves its account
+        clear_run_info(out)
     return out
 
 
 def _unusable_output(out):
-    """Why ``out`` cannot be the output directory, or None."""
-    if out.exists() and not out.is_dir():
-        return "exists and is not a directory"
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-        probe = out / f".pdem-write-test-{os.getpid()}"
-        probe.write_bytes(b"pdem")
-        probe.unlink()
-    except OSError as exc:
-        return f"cannot create or write the output directory ({exc.strerror or exc})"
+    """Why ``out`` or ``out/checkpoints`` cannot hold a run's output, or None."""
+    ckdir = out / "checkpoints"
+    for d, what in ((out, ""), (ckdir, f"its checkpoints folder {ckdir} ")):
+        problem = _unwritable_directory(d)
+        if problem:
+            return what + problem
     return None
 
 
+def _unwritable_directory(d):
+    """Why the directory ``d`` cannot be created or written, or None."""
+    if d.exists() and not d.is_dir():
+        return "exists and is not a directory"
+    try:
+        d.mkdir(parents=True, exist_ok=True)
+        probe = d / f".pdem-write-test-{os.getpid()}"
+        probe.write_bytes(b"pdem")
+        probe.unlink()
+    except OSError as exc:
+        return f"cannot be created or written ({exc.strerror or exc})"
+    return None

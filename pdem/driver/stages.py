@@ -47,6 +47,7 @@ from ..build.scene import sphere_columns
 from ..simulation import Timers
 from ..bodies.state import FIELDS
 from . import observables
+from .preflight import check_run_length
 from .runloop import RunLoop, prepare_output, resume_point
 
 
@@ -291,6 +292,8 @@ class StagedRun:
             n_steps = stage.max_steps
             if self.stop_step is not None:
                 n_steps = min(n_steps, max(self.stop_step - sim.step, 0))
+            check_run_length(f"stage {stage.name}: its end at t = {t_end:.6g} s at dt = {sim.dt:.4g} s",
+                             min(eta_step - sim.step, n_steps))
             outcome = self.loop.advance(sim, n_steps, on_step=on_step, until=until, until_every=every,
                                         last_step=eta_step)
             if outcome == "signal":

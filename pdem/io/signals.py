@@ -23,7 +23,7 @@ from __future__ import annotations
 import signal
 import threading
 
-EXIT_CHECKPOINTED_ON_SIGNAL = 3
+from ..errors import EXIT_CHECKPOINTED_ON_SIGNAL
 STOP_SIGNALS = (signal.SIGTERM, signal.SIGUSR1)
 
 __all__ = [

@@ -7,8 +7,14 @@ ranks (subprocesses through the real command line; docs/reliability.md).
 - bad input and errors every rank raises: printed once, status 2;
 - runaway runs (a shot into a wall, dt = 1 s): status 4 naming the body, never 0;
 - too many ranks for the slabs: status 2 with the largest usable count;
-- output failures: --out a file or under a file, a damaged results.h5 on resume (refused on
-  every rank together), a full disk (status 5, one line, never a segfault).
+- ranks launched on different scene files or arguments (an MPMD launch): status 2 at start,
+  one line naming the rank, never a hang;
+- a run whose requested length no run could reach (run.steps, --steps, a stage's end time):
+  status 2 at start, one line naming the field;
+- output failures: --out a file or under a file, its checkpoints folder unusable, a damaged
+  results.h5 on resume (refused on every rank together), a full disk (status 5, one line, never
+  a segfault);
+- a campaign file or its base scene that is a folder or not text: status 2, one line.
 Fault injection: tests/tools/inject_fault.py (the real CLI with one rank's step raising).
 """
 import os
@@ -86,6 +92,11 @@ def run(n_ranks, argv, tmp_path, env=None, tool=None, timeout=HUNG_AFTER):
     cmd = [sys.executable] + ([str(INJECT), *tool, "--"] if tool else ["-m", "pdem"]) + list(argv)
     if n_ranks > 1:
         cmd = [str(MPIEXEC), "-n", str(n_ranks)] + cmd
+    return run_cmd(cmd, tmp_path, env, timeout)
+
+
+def run_cmd(cmd, tmp_path, env=None, timeout=HUNG_AFTER):
+    """(returncode, stdout, stderr) of ``cmd`` in ``tmp_path``, killed after ``timeout`` s (TimeoutExpired)."""
     e = dict(os.environ, OMP_NUM_THREADS="1", NUMBA_NUM_THREADS="1", **(env or {}))
     r = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, env=e, cwd=tmp_path, check=False)
     return r.returncode, r.stdout, r.stderr
@@ -153,20 +164,77 @@ def test_bad_input_once_status_2(tmp_path, n_ranks, edit, words):
         assert w in lines[0], lines
 
 
-@pytest.mark.parametrize("n_ranks", [1, 2])
+@pytest.mark.parametrize("n_ranks", [1, 2, 3])
 def test_output_directory_problems(tmp_path, n_ranks):
+    """--out a file, under a file, /dev/null; its checkpoints/ a file or a folder that cannot be
+    created: status 2 and one line naming the path at start (the checkpoints folder was found
+    only at the first checkpoint, after the work, as a failed write: status 5)."""
     s = scene(tmp_path)
     (tmp_path / "afile").write_text("x")
+    (tmp_path / "ck_file").mkdir()
+    (tmp_path / "ck_file" / "checkpoints").write_text("x")
+    (tmp_path / "ck_link").mkdir()
+    (tmp_path / "ck_link" / "checkpoints").symlink_to("/proc/self/no-such-folder")  # a folder nobody can create
     for out, words in (
         ("afile", ["--out afile", "not a directory"]),
         ("afile/sub", ["--out afile/sub", "Not a directory"]),
         ("/dev/null", ["--out /dev/null", "not a directory"]),
+        ("ck_file", ["--out ck_file: its checkpoints folder ck_file/checkpoints exists and is not a directory"]),
+        ("ck_link", ["--out ck_link: its checkpoints folder ck_link/checkpoints cannot be created or written"]),
     ):
-        rc, _, err = run(n_ranks, ["run", str(s), "--out", out], tmp_path)
+        rc, out_text, err = run(n_ranks, ["run", str(s), "--out", out], tmp_path)
         lines = pdem_lines(err)
         assert rc == 2 and len(lines) == 1 and "Traceback" not in err, (out, rc, err[-2000:])
+        assert "step" not in out_text  # found at start, before the scene is built or a step is made
         for w in words:
             assert w in lines[0], lines
+
+
+@pytest.mark.parametrize("n_ranks", [2, 3])
+@pytest.mark.parametrize("differ, words", [
+    ("file", ["read a different scene file"]),
+    ("args", ["was given different arguments"]),
+])
+def test_ranks_that_disagree_on_their_input_stop_at_start(tmp_path, n_ranks, differ, words):
+    """An MPMD launch (mpiexec -n N-1 pdem run A : -n 1 pdem run B): the last rank reads another
+    scene file (another seed: it would build other spheres and the ranks would wait on each
+    other forever) or is given another --steps. Every rank stops at start: status 2, one line
+    naming that rank; a hung job is killed after HUNG_AFTER (TimeoutExpired fails the test)."""
+    a = scene(tmp_path)
+    b = scene(tmp_path, SCENE.replace("seed = 1", "seed = 2"), name="other.toml")
+    pdem = [sys.executable, "-m", "pdem", "run"]
+    last = [str(b), "--out", "out"] if differ == "file" else [str(a), "--out", "out", "--steps", "150"]
+    cmd = [str(MPIEXEC), "-n", str(n_ranks - 1), *pdem, str(a), "--out", "out", ":", "-n", "1", *pdem, *last]
+    rc, _, err = run_cmd(cmd, tmp_path)
+    lines = pdem_lines(err)
+    assert rc == 2 and len(lines) == 1 and "Traceback" not in err, (rc, err[-2000:])
+    assert f"ranks disagree on their input: rank {n_ranks - 1} " in lines[0], lines
+    for w in words:
+        assert w in lines[0], lines
+    assert not (tmp_path / "out").exists()  # stopped before any work
+
+
+@pytest.mark.parametrize("n_ranks", [1, 2, 3])
+@pytest.mark.parametrize("how", ["run.steps", "--steps", "stage"])
+def test_absurd_run_length_refused_at_start(tmp_path, n_ranks, how):
+    """10**15 steps (centuries at any step cost: pdem.driver.preflight.MAX_STEPS) asked by
+    run.steps, by --steps, or by a stage's end (the oedometer's pour settles up to 1e12 s):
+    status 2, one line naming the field, before any step (a plain run: before its output)."""
+    from factories import oedometer_ci_doc, toml_text
+
+    s = scene(tmp_path, SCENE.replace("steps = 200", "steps = 1000000000000000") if how == "run.steps" else SCENE)
+    extra, words = [], [f"{how} = 1000000000000000: 1e+15 steps would take at least 317 years"]
+    if how == "--steps":
+        extra = ["--steps", "1000000000000000"]
+    elif how == "stage":
+        s = scene(tmp_path, toml_text(oedometer_ci_doc(settle_max_time=1e12)))
+        words = ["stage pour: its end at t = 1e+12 s at dt =", "1e+15 steps"]
+    rc, _, err = run(n_ranks, ["run", str(s), "--out", "out", *extra], tmp_path)
+    lines = pdem_lines(err)
+    assert rc == 2 and len(lines) == 1 and "Traceback" not in err, (rc, err[-2000:])
+    for w in words:
+        assert w in lines[0], lines
+    assert how == "stage" or not (tmp_path / "out").exists()
 
 
 def test_negative_steps_refused(tmp_path):
@@ -175,6 +243,26 @@ def test_negative_steps_refused(tmp_path):
     assert rc == 2 and pdem_lines(err) == [
         "pdem: error: --steps = -5: must be an integer >= 0 (the total steps of the run)"
     ]
+
+
+@pytest.mark.parametrize("command", ["expand", "run", "status"])
+def test_campaign_file_or_base_scene_a_folder_or_binary(tmp_path, command):
+    """`pdem campaign run DIR`, a binary campaign file, a base scene that is a folder or binary:
+    one line naming the file, status 2, no traceback (were a traceback each)."""
+    folder = tmp_path / "folder"
+    folder.mkdir()
+    (tmp_path / "binary.toml").write_bytes(bytes(range(256)))
+    (tmp_path / "base_folder.toml").write_text('[campaign]\nbase = "folder"\n[seeds]\nvalues = [1]\n')
+    (tmp_path / "base_binary.toml").write_text('[campaign]\nbase = "binary.toml"\n[seeds]\nvalues = [1]\n')
+    cases = [("binary.toml", "binary.toml: not a text file in UTF-8 (a TOML campaign file is)"),
+             ("base_folder.toml", f"campaign.base = 'folder': {folder}: is a directory, not a base scene file"),
+             ("base_binary.toml", "campaign.base = 'binary.toml': ")]
+    if command != "status":  # status reads a folder as a campaign's folder (its campaign.json)
+        cases.append(("folder", "folder: is a directory, not a campaign file"))
+    for name, words in cases:
+        rc, _, err = run(1, ["campaign", command, name], tmp_path)
+        assert rc == 2 and "Traceback" not in err, (name, rc, err[-2000:])
+        assert pdem_lines(err) == [err.strip()] and words in err, (name, err)
 
 
 @pytest.mark.parametrize("n_ranks", [1, 2])
