@@ -13,7 +13,7 @@ A staged scene lists its stages (`pdem.driver.stages.Stage`); what scenes share 
 from importlib import import_module
 
 SCENES = {"box_test": "pdem.scenes.box_test", "blast": "pdem.scenes.blast", "track": "pdem.scenes.track",
-          "oedometer": "pdem.scenes.oedometer"}
+          "oedometer": "pdem.scenes.oedometer", "shear_box": "pdem.scenes.shear_box"}
 
 
 def find(doc):
