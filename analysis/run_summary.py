@@ -9,12 +9,12 @@ This module owns the run's summary: it reads the run's account (``RUN/run_info.j
 - ``RUN/analysis/``: the analysis of the run's kind (``summary`` of run_info.json): box test
   (`analysis.summary.run_box`: loops, settlement, stiffness, summary.txt/.json), oedometer
   (`analysis.oedometer`, with the grading), blast (`analysis.blast`, every plate), track
-  (`analysis.track`, after traffic);
+  (`analysis.track`, after traffic), shear box (`shear_box`: shear stress against displacement);
 - ``RUN/summary.txt``: title, ranks, wall time [s], what the run tells of itself, the stage table
   of a staged run (end time [s], steps, spheres, unbalanced force ratio [-], bed top [m], the
   scene's own columns, wall time [s]), the
   run's notes, the table of its kind (cycles [mm], [N]; the oedometer report; impulse per plate
-  [MPa s]; passages [mm]) and the timing table; it is also printed.
+  [MPa s]; passages [mm]; the shear box's peak) and the timing table; it is also printed.
 
 A failing analysis (bad results) is reported in summary.txt and on stderr; the rest is written.
 """
@@ -24,12 +24,14 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
+import numpy as np
+
 from pdem.format.groups import read_blast, read_track
 from pdem.format.read import ResultFileError, read_results
 from pdem.format.run import RUN_INFO, read_run_info
 
 from .blast import analyse_blast, blast_dict, write_blast
-from .figures import plot_preparation, plot_run_series
+from .figures import figure, plot_preparation, plot_run_series, save
 from .oedometer import run_oedometer
 from .summary import run_box
 from .track import KN, fit_lines, fit_settlement, run_track
@@ -141,7 +143,25 @@ def track(run, info):
     return lines + fit_lines(fits), run_track(run, run / "analysis")
 
 
-KINDS = {"scene": scene, "box_test": box_test, "oedometer": oedometer, "blast": blast, "track": track}
+def shear_box(run, info):
+    """The shear box: τ = shear force / area and σ = normal force / area [Pa] against the
+    displacement; the peak τ/σ and its friction angle; analysis/shear_box.png."""
+    s = read_results(run / "results.h5", required=("shear_displacement", "shear_force", "normal_force")).series
+    d, tau, sigma = s["shear_displacement"], s["shear_force"] / info["area"], s["normal_force"] / info["area"]
+    k = int(np.argmax(tau / np.maximum(sigma, 1e-300)))
+    fig, ax = figure()
+    ax.plot(MM * d, tau * 1e-3, label="shear stress")
+    ax.plot(MM * d, sigma * 1e-3, label="normal stress")
+    ax.set(xlabel="shear displacement [mm]", ylabel="stress [kPa]")
+    ax.legend()
+    (run / "analysis").mkdir(exist_ok=True)
+    lines = [f"peak tau/sigma {tau[k] / sigma[k]:.4f} (friction angle {np.degrees(np.arctan(tau[k] / sigma[k])):.2f} "
+             f"deg) at {MM * d[k]:.3f} mm: tau {tau[k]:.6g} Pa, sigma {sigma[k]:.6g} Pa"]
+    return lines, [save(fig, run / "analysis" / "shear_box.png")]
+
+
+KINDS = {"scene": scene, "box_test": box_test, "oedometer": oedometer, "blast": blast, "track": track,
+         "shear_box": shear_box}
 
 
 def add_parser(sub) -> None:

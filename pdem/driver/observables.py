@@ -5,6 +5,7 @@ the rank count (exact sums, max/min reductions).
   by the mean contact force magnitude (Yade's ``unbalancedForce``) [-]
 - wall forces: total force of the spheres on each wall [N] (exact sums over contacts)
 - top of the bed: max over spheres of z + r [m]
+- facets: total force of the spheres on a group of facets (e.g. a frame) [N] (exact sums)
 - the largest overlap of any real contact over the smaller radius of its pair [-]
   (`pdem.checks.diagnostics.max_overlap_ratio`, the guard's)
 - rigid boxes: force of the spheres on each box [N] (exact sums) and centre [m]; the force on a
@@ -19,6 +20,18 @@ def wall_forces(sim):
     """[n_walls, 3] total force exerted by the spheres on each wall [N] (exact sums)."""
     kind = sim.kind("sphere_wall")
     return np.zeros((len(sim.walls), 3)) if kind is None else kind.totals(sim.comm)
+
+
+def facet_force(sim, facets):
+    """[3] total force of the spheres on the facets of index ``facets`` [N]: an exact sum over
+    their contacts on all ranks (collective; the same bits on any rank count)."""
+    kind = sim.kind("sphere_facet")
+    if kind is None:
+        return np.zeros(3)
+    c = kind.contacts
+    rows = c.real_rows()
+    group = np.isin(kind.body_of[c.j[rows]], facets).astype(np.int64)
+    return sim.comm.exact_sum_groups(-c.force[rows], group, 2)[1]
 
 
 def unbalanced_force(sim):

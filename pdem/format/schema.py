@@ -57,6 +57,10 @@ Kind "oedometer" (SPEC 2.2, thesis ch. 4)
     upward), ``platen_displacement`` [m] (positive downward, zero when loading starts),
     ``max_overlap_ratio`` [-] (the largest overlap over the smaller radius of its pair);
     ``/fragments`` records "initial", "vibrated", "peak", "unloaded" with breakable clumps.
+Kind "shear_box" (`pdem.scenes.shear_box`)
+    ``/series`` `SHEAR_BOX_SERIES`: ``shear_displacement`` [m] of the upper frame along x,
+    ``shear_force`` [N] (force of the sample resisting it), ``normal_force`` [N] (force of the
+    sample on the platen, up), ``platen_z`` [m] (the platen's centre).
 Kind "track" (SPEC 2.4). Sleepers are numbered 0..n_sleepers-1 along the track axis.
     pdem writes ``/series`` `TRACK_SERIES` (``applied_load`` [N]: total applied load on the
     sleepers, downward; ``ballast_force`` [N]: total force of the ballast on them, upward;
@@ -161,6 +165,9 @@ PREPARATION_SERIES = {"step": "-", "time": "s", "stage": "-", "n_spheres": "-", 
 OEDOMETER_SERIES = {"step": "-", "time": "s", "dt": "s", "platen_load": "N", "platen_force": "N",
                     "platen_displacement": "m", "kinetic_energy": "J", "contacts_per_particle": "-",
                     "max_overlap_ratio": "-"}
+# the direct shear box's record (kind "shear_box", pdem.scenes.shear_box)
+SHEAR_BOX_SERIES = {"step": "-", "time": "s", "dt": "s", "shear_displacement": "m", "shear_force": "N",
+                    "normal_force": "N", "platen_z": "m"}
 # the blast run's record (kind "blast", pdem.scenes.blast): time 0 at the start of the impulse
 BLAST_RUN_SERIES = {"step": "-", "time": "s", "dt": "s", "plate_position": "m", "plate_velocity": "m/s",
                     "ceiling_stress": "Pa", "input_force": "N", "kinetic_energy": "J"}

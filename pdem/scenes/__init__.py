@@ -4,7 +4,8 @@ A scene is a module with ``check(doc)`` (validate a parsed scene file without ru
 `InputError`) and ``run(path, doc, out_dir, comm, steps=None, fresh=False)`` (run or resume it on
 the ranks of ``comm``; returns the exit status). A scene file selects one by its top-level table
 (``[box_test]`` → `pdem.scenes.box_test`, ``[track]`` → `pdem.scenes.track`, ``[oedometer]`` →
-`pdem.scenes.oedometer`); a file with none
+`pdem.scenes.oedometer`, ``[shear_box]`` → `pdem.scenes.shear_box`, the one-file example of
+docs/design.md); a file with none
 of them is a plain scene (`pdem.driver.plain`). Adding a scene is its module plus one line in `SCENES`.
 A staged scene lists its stages (`pdem.driver.stages.Stage`); what scenes share lives beside them:
 `pdem.scenes.common.preparation` (the pour, refill, vibrate and settle stages of a ballast bed),
@@ -13,7 +14,7 @@ A staged scene lists its stages (`pdem.driver.stages.Stage`); what scenes share 
 from importlib import import_module
 
 SCENES = {"box_test": "pdem.scenes.box_test", "blast": "pdem.scenes.blast", "track": "pdem.scenes.track",
-          "oedometer": "pdem.scenes.oedometer"}
+          "oedometer": "pdem.scenes.oedometer", "shear_box": "pdem.scenes.shear_box"}
 
 
 def find(doc):
