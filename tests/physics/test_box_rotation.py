@@ -5,8 +5,8 @@ Truth is independent of pdem's output: Newton–Euler for a known force and mome
 dL/dt = τ, ω = L/I with the solid cuboid's I = m(a² + c²)/12), conservation of the total linear
 and angular momentum of a sphere striking a free box off-centre, statics of a box on two
 supports under an eccentric load (support forces from the force and moment balance, tilt from
-the supports' stiffness, Yade's Ip2 formula for kn; frictionless: no shear moment), and the closest-point geometry of a cuboid
-rotated by a known angle.
+the supports' stiffness, Yade's Ip2 formula for kn; frictionless: no shear moment), and the
+closest-point geometry of a cuboid rotated by a known angle.
 """
 import math
 
