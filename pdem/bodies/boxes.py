@@ -118,8 +118,10 @@ def principal_inertia(label, inertia, mass, half):
         raise InputError(bad) from None
     if t.shape == (3,):
         t = np.diag(t)
-    if t.shape != (3, 3) or not np.all(np.isfinite(t)) or not np.array_equal(t, t.T):
+    if t.shape != (3, 3) or not np.all(np.isfinite(t)) or not np.allclose(t, t.T, rtol=0.0,
+                                                                           atol=1e-12 * np.abs(t).max()):
         raise InputError(bad)
+    t = 0.5 * (t + t.T)  # symmetric to the last bit
     if np.array_equal(t, np.diag(np.diag(t))):
         moments, axes = np.diag(t).copy(), np.eye(3)
     else:
