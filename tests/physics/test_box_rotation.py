@@ -181,3 +181,22 @@ def test_given_tensor_has_its_principal_axes():
     np.testing.assert_allclose(np.sort(b.inertia[0]), np.linalg.eigvalsh(t), rtol=1e-14)
     np.testing.assert_allclose(b.axes[0] @ np.diag(b.inertia[0]) @ b.axes[0].T, t, atol=1e-14)
     np.testing.assert_array_equal(b.rotation[0], np.eye(3))
+
+
+def test_axis_aligned_and_rotating_boxes_keep_their_kinds():
+    """In one scene an axis-aligned box keeps the ``sphere_box`` kind and a rotating one gets
+    ``sphere_oriented_box``: each sphere touches its own box through its own kind only, and the
+    axis-aligned box gets no torque."""
+    sc, ball, steel = ball_and_steel()
+    sc.add_box((0.0, 0.0, 0.0), HALF, steel, mass=1.0, fixed=True)
+    sc.add_box((0.5, 0.0, 0.0), HALF, steel, mass=1.0, blocked="xyXZ")
+    sc.add_spheres([(0.0, 0.0, HALF[2] + R - 0.001), (0.55, 0.0, HALF[2] + R - 0.001)], R, ball, fixed=True)
+    sim = sc.build()
+    sim.run(1)
+    aligned, oriented = sim.contacts("sphere_box"), sim.contacts("sphere_oriented_box")
+    assert aligned["index"].tolist() == [0] and oriented["index"].tolist() == [1]
+    assert aligned["gid1"].tolist() == [0] and oriented["gid1"].tolist() == [1]
+    assert sim.boxes.contact_torque[0].tolist() == [0.0, 0.0, 0.0]
+    # pushed down (F_z < 0) at 0.05 m along +x from the centre: the moment −0.05 F_z about +y
+    assert sim.boxes.contact_force[1, 2] < 0.0
+    assert sim.boxes.contact_torque[1] == pytest.approx([0.0, -0.05 * sim.boxes.contact_force[1, 2], 0.0], rel=1e-12)
