@@ -149,6 +149,9 @@ class Simulation:
             kind.add_forces(self)
         if self.boxes is not None:
             self.boxes.contact_force = self.box_contact_force()
+            oriented = self.kind("sphere_oriented_box")
+            if oriented is not None:  # boxes with free rotations (pdem.bodies.boxes)
+                self.boxes.contact_torque = oriented.torques(self)
         if self.clumps is not None:
             self.clumps.sum_forces(self.particles)
 

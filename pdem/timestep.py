@@ -95,6 +95,17 @@ def box_dt(mass, blocked, stiffness):
     return sqrt(best)
 
 
+def box_turn_dt(boxes, stiffness):
+    """sqrt(min over boxes with a free rotation of I_min/(K |h|²)) [s]: K |h|² bounds the
+    rotational stiffness (every contact at the farthest point of the box); inf without such a box
+    with contacts."""
+    best = np.inf
+    for b in np.flatnonzero(boxes.rotating):
+        if stiffness[b] > 0.0:
+            best = min(best, boxes.inertia[b].min() / (stiffness[b] * float(boxes.half[b] @ boxes.half[b])))
+    return sqrt(best)
+
+
 def contact_dt(sim):
     """Δt_k of this rank's owned bodies from the real contacts of every kind [s]."""
     p = sim.particles
@@ -135,7 +146,10 @@ def stable_dt(sim):
     p = sim.particles
     k_dt = contact_dt(sim)
     for kind in sim.box_kinds:  # the box's own mass–spring step, from the global sum of its contacts
-        k_dt = min(k_dt, box_dt(sim.boxes.mass, sim.boxes.blocked, kind.stiffness_totals(sim.comm)))
+        k = kind.stiffness_totals(sim.comm)
+        k_dt = min(k_dt, box_dt(sim.boxes.mass, sim.boxes.blocked, k))
+        if kind.name == "sphere_oriented_box":
+            k_dt = min(k_dt, box_turn_dt(sim.boxes, k))
     k_dt = sim.comm.allreduce_min(k_dt)
     nl = p.n_local
     young = sim.law.pwave_modulus(sim.materials.column(sim.law.PWAVE_KEY)[p.material[:nl]], p.radius[:nl])

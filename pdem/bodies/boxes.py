@@ -1,9 +1,9 @@
 """Rigid boxes: axis-aligned cuboid bodies (sleeper, loading platen, cover plate), replicated on
 every rank (like walls), each one body with its own mass, blocked DOFs and force program.
 
-A box is ``center ± half_extents`` [m]; its orientation is fixed (axis-aligned: the rotational
-DOFs are always blocked). Spheres touch its faces, edges and corners (`pdem.contact.linear.
-sphere_box_forces`). Every step the simulation sets ``contact_force`` (the total force of the
+A box is ``center ± half_extents`` [m] along its own axes; by default its rotations are blocked
+and it stays axis-aligned. Spheres touch its faces, edges and corners (`pdem.contact.geometry.
+SphereBox`). Every step the simulation sets ``contact_force`` (the total force of the
 spheres on each box [N], an exact sum over all ranks, so every rank holds the same bits) and
 calls `Boxes.integrate`: per free translation ``a = (F_contact + F_load)/m + g`` (optionally
 Cundall-damped per box), ``v += Δt a``, then ``x += Δt v`` for every box (a blocked box moves with
@@ -11,9 +11,26 @@ its prescribed velocity), exactly as the sphere leapfrog (`pdem.integrator`). Th
 ``program.value(t) · direction`` with t the time at the start of the step (when the contact
 forces were computed); direction defaults to −z (a sleeper pushed down).
 
-Storage: the rows the contact loop reads (`pdem.contact.geometry.SphereBox`): ``kernel_f``
-[n, 9] = centre, half extents, velocity and ``kernel_i`` [n, 1] = material; the named
-attributes are views of them.
+A box with free rotations (``blocked`` without some of X, Y, Z; e.g. "xyXZ": z translation and
+tilting about y, the half model's sleeper) is a rigid body with six degrees of freedom: an
+orientation q (w, x, y, z, its principal frame → global), angular momentum L [kg·m²/s] (global),
+principal moments I [kg·m²] (a solid cuboid, m(b² + c²)/12 … with a, b, c the edge lengths, or
+a given symmetric positive definite tensor in the box's axes, diagonalised once: ``axes`` V, its
+principal directions in the box frame). Each step ``contact_torque`` (the moment about the box
+centre of the sphere contacts' forces at their contact points [N·m], an exact sum over all ranks
+like ``contact_force``) plus the load's moment (the load acts at ``load_point``, box axes [m])
+turns it by Yade's aspherical leapfrog (`pdem.bodies.clumps.aspherical_rotate`, Cundall-damped
+by the box's λ_D as the clumps are); torque and L about blocked global axes are held at zero (exact
+when the free rotation is about a principal axis, e.g. one free tilt). Its spheres use the contact
+kind ``sphere_oriented_box`` (`pdem.contact.geometry.SphereOrientedBox`: the box contact in the
+box's axes, the box's velocity at the contact point); axis-aligned boxes keep ``sphere_box``.
+Checkpoints carry q, L, ω and R; snapshots show the box axis-aligned (orientation not written).
+A box with member spheres cannot rotate (refused).
+
+Storage: the rows the contact loop reads (`pdem.contact.geometry.SphereBox`, `SphereOrientedBox`):
+``kernel_f`` [n, 21] = centre, half extents, velocity, rotation R box → global (row-major; the
+identity for a box that does not rotate), angular velocity ω [rad/s] and ``kernel_i`` [n, 1] =
+material; the named attributes are views of them.
 
 A box may instead have a surface of member spheres (``members``: centres relative to its centre
 [m], all of ``member_radius`` [m]): the thesis's clump sleeper, 2280 steel spheres of 5 mm fused
@@ -24,7 +41,7 @@ rotates is exactly a translating box with its members at fixed offsets, so this 
 with blocked rotations and x, y translations, without the clump's per-member bookkeeping and
 without its slab ownership (boxes are replicated on every rank).
 
-Imports nothing from pdem but errors, loads, state and validate.
+Imports nothing from pdem but errors, loads, state, validate and the clumps' rotation.
 """
 from math import sqrt
 
@@ -33,11 +50,13 @@ from numba import njit
 
 from ..errors import InputError
 from ..boundaries.loads import Constant, Haversine, Impulse, SleeperLoad
+from .clumps import aspherical_rotate
 from .state import DOF_ALL
 from ..build.validate import number, vector3
 
 DOF_LETTERS = "xyzXYZ"
 ROTATIONS = 0b111000
+ROWS = 21  # kernel_f columns: centre 0, half extents 3, velocity 6, rotation 9 (row-major), ω 18
 
 
 @njit(cache=True)
@@ -70,9 +89,8 @@ def leapfrog_boxes(kernel_f, blocked, damping, mass, contact_force, load_force, 
 
 
 def blocked_mask(label, blocked, fixed):
-    """Bit mask (bits 0–2 x, y, z; 3–5 rotations) from ``fixed`` or a string of ``xyzXYZ``.
-
-    Rotations are always blocked (orientation fixed); a string that frees one is refused."""
+    """Bit mask (bits 0–2 x, y, z; 3–5 rotations) from ``fixed`` or a string of ``xyzXYZ``
+    (default: rotations blocked)."""
     if fixed:
         return DOF_ALL
     if blocked is None:
@@ -82,17 +100,127 @@ def blocked_mask(label, blocked, fixed):
     mask = 0
     for c in blocked:
         mask |= 1 << DOF_LETTERS.index(c)
-    if mask & ROTATIONS != ROTATIONS:
-        raise InputError(f"{label}.blocked = {blocked!r}: boxes do not rotate, so it must contain X, Y and Z "
-                         "(e.g. 'xyXYZ' for z translation only)")
     return mask
+
+
+def principal_inertia(label, inertia, mass, half):
+    """(principal moments [3] [kg·m²], their directions V [3, 3] (columns, box axes)) from
+    ``inertia`` (None: a solid cuboid of ``mass`` and ``half`` extents; 3 moments about the box
+    axes; or a 3×3 tensor in the box axes, symmetric positive definite)."""
+    if inertia is None:
+        a2, b2, c2 = (2.0 * half) ** 2
+        return mass / 12.0 * np.array([b2 + c2, a2 + c2, a2 + b2]), np.eye(3)
+    bad = (f"{label}.inertia = {inertia!r}: must be 3 principal moments or a 3×3 tensor [kg·m²], symmetric "
+           "positive definite")
+    try:
+        t = np.asarray(inertia, dtype=float)
+    except (TypeError, ValueError):
+        raise InputError(bad) from None
+    if t.shape == (3,):
+        t = np.diag(t)
+    if t.shape != (3, 3) or not np.all(np.isfinite(t)) or not np.allclose(t, t.T, rtol=0.0,
+                                                                           atol=1e-12 * np.abs(t).max()):
+        raise InputError(bad)
+    t = 0.5 * (t + t.T)  # symmetric to the last bit
+    if np.array_equal(t, np.diag(np.diag(t))):
+        moments, axes = np.diag(t).copy(), np.eye(3)
+    else:
+        moments, axes = np.linalg.eigh(t)
+        axes[:, 2] *= np.sign(np.linalg.det(axes))  # a rotation (det +1)
+    if not np.all(moments > 0.0):
+        raise InputError(bad)
+    return moments, axes
+
+
+def quaternion_of(matrix):
+    """Unit quaternion (w, x, y, z) of a rotation matrix (Shepperd's method)."""
+    m = np.asarray(matrix, float)
+    tr = np.trace(m)
+    k = int(np.argmax([tr, m[0, 0], m[1, 1], m[2, 2]]))
+    if k == 0:
+        w = 0.5 * sqrt(1.0 + tr)
+        q = [w, (m[2, 1] - m[1, 2]) / (4 * w), (m[0, 2] - m[2, 0]) / (4 * w), (m[1, 0] - m[0, 1]) / (4 * w)]
+    else:
+        i, j, l = k - 1, k % 3, (k + 1) % 3
+        v = 0.5 * sqrt(1.0 + m[i, i] - m[j, j] - m[l, l])
+        q = np.zeros(4)
+        q[0] = (m[l, j] - m[j, l]) / (4 * v)
+        q[1 + i], q[1 + j], q[1 + l] = v, (m[j, i] + m[i, j]) / (4 * v), (m[l, i] + m[i, l]) / (4 * v)
+    q = np.asarray(q, float)
+    return q / np.linalg.norm(q)
+
+
+@njit(cache=True)
+def rotate_boxes(kernel_f, blocked, damping, ori, angmom, inertia, axes, torque, dt):
+    """Turn every box with a free rotation: torque (about free global axes) into L and q by
+    `aspherical_rotate`, q normalised, ω (zero about blocked axes) and R = R(q) Vᵀ into the box's
+    row. Returns the largest displacement of a box point by this step's turn, |ω| Δt |h| [m]."""
+    turned = 0.0
+    for b in range(blocked.shape[0]):
+        if blocked[b] & ROTATIONS == ROTATIONS:
+            continue
+        t = np.zeros(3)
+        for k in range(3):
+            if not blocked[b] & (8 << k):
+                t[k] = torque[b, k]
+        qw, qx, qy, qz, ox, oy, oz = aspherical_rotate(ori[b, 0], ori[b, 1], ori[b, 2], ori[b, 3], angmom[b], t[0],
+                                                       t[1], t[2], kernel_f[b, 18:21], inertia[b], damping[b], dt)
+        qn = sqrt((qx * qx + qy * qy) + (qz * qz + qw * qw))
+        qw = qw / qn
+        qx = qx / qn
+        qy = qy / qn
+        qz = qz / qn
+        ori[b, 0] = qw
+        ori[b, 1] = qx
+        ori[b, 2] = qy
+        ori[b, 3] = qz
+        w = (ox, oy, oz)
+        for k in range(3):
+            kernel_f[b, 18 + k] = 0.0 if blocked[b] & (8 << k) else w[k]
+        rp = _rotation_matrix(qw, qx, qy, qz)
+        for a in range(3):
+            for k in range(3):
+                kernel_f[b, 9 + 3 * a + k] = (rp[a, 0] * axes[b, k, 0] + rp[a, 1] * axes[b, k, 1]
+                                              + rp[a, 2] * axes[b, k, 2])
+        w2 = kernel_f[b, 18] ** 2 + kernel_f[b, 19] ** 2 + kernel_f[b, 20] ** 2
+        h2 = kernel_f[b, 3] ** 2 + kernel_f[b, 4] ** 2 + kernel_f[b, 5] ** 2
+        turned = max(turned, sqrt(w2 * h2) * dt)
+    return turned
+
+
+@njit(cache=True)
+def _rotation_matrix(qw, qx, qy, qz):
+    """R(q) of a unit quaternion (Eigen's toRotationMatrix)."""
+    tx = 2.0 * qx
+    ty = 2.0 * qy
+    tz = 2.0 * qz
+    twx = tx * qw
+    twy = ty * qw
+    twz = tz * qw
+    txx = tx * qx
+    txy = ty * qx
+    txz = tz * qx
+    tyy = ty * qy
+    tyz = tz * qy
+    tzz = tz * qz
+    r = np.empty((3, 3))
+    r[0, 0] = 1.0 - (tyy + tzz)
+    r[0, 1] = txy - twz
+    r[0, 2] = txz + twy
+    r[1, 0] = txy + twz
+    r[1, 1] = 1.0 - (txx + tzz)
+    r[1, 2] = tyz - twx
+    r[2, 0] = txz - twy
+    r[2, 1] = tyz + twx
+    r[2, 2] = 1.0 - (txx + tyy)
+    return r
 
 
 class Boxes:
     """Structure of arrays over the boxes of a scene (index order = declaration order)."""
 
     def __init__(self):
-        self.kernel_f = np.zeros((0, 9))
+        self.kernel_f = np.zeros((0, ROWS))
         self.kernel_i = np.zeros((0, 1), np.int64)
         self.mass = np.zeros(0)
         self.blocked = np.zeros(0, np.int64)
@@ -100,8 +228,15 @@ class Boxes:
         self.direction = np.zeros((0, 3))
         self.loads = []
         self.names = []
+        # rotation (boxes with free rotations; module docstring)
+        self.ori = np.zeros((0, 4))
+        self.angmom = np.zeros((0, 3))
+        self.inertia = np.zeros((0, 3))
+        self.axes = np.zeros((0, 3, 3))
+        self.load_point = np.zeros((0, 3))
         # per-step outputs, identical on every rank
         self.contact_force = np.zeros((0, 3))
+        self.contact_torque = np.zeros((0, 3))
         self.load_force = np.zeros((0, 3))
         self.members = BoxMembers()
 
@@ -109,25 +244,39 @@ class Boxes:
     half = property(lambda self: self.kernel_f[:, 3:6])
     velocity = property(lambda self: self.kernel_f[:, 6:9])
     material = property(lambda self: self.kernel_i[:, 0])
+    rotation = property(lambda self: self.kernel_f[:, 9:18].reshape(-1, 3, 3))
+    angvel = property(lambda self: self.kernel_f[:, 18:21])
+    rotating = property(lambda self: (self.blocked & ROTATIONS) != ROTATIONS)
 
     def __len__(self):
         return len(self.mass)
 
     def search_arrays(self):
-        """Arguments of `pdem.contact.neighbors.build_box_candidates` after the particles (boxes with
-        member spheres have no flat faces: they are left out)."""
-        return self.center, self.half, self.members.count_of(len(self)) == 0
+        """Arguments of `pdem.contact.neighbors.build_box_candidates` after the particles for the
+        axis-aligned boxes (boxes with member spheres have no flat faces, rotating boxes are
+        `oriented_search_arrays`': both are left out)."""
+        return self.center, self.half, (self.members.count_of(len(self)) == 0) & ~self.rotating
+
+    def oriented_search_arrays(self):
+        """The same for the boxes with free rotations, each by its global bounding box (half
+        extents Σ_k |R_ak| h_k)."""
+        return self.center, np.einsum("bak,bk->ba", np.abs(self.rotation), self.half), self.rotating
 
     def smooth_count(self):
-        """Number of boxes with flat faces (no member spheres)."""
-        return int(np.count_nonzero(self.members.count_of(len(self)) == 0))
+        """Number of axis-aligned boxes with flat faces (no member spheres, no free rotation)."""
+        return int(np.count_nonzero(self.search_arrays()[2]))
+
+    def oriented_count(self):
+        """Number of boxes with free rotations."""
+        return int(np.count_nonzero(self.rotating))
 
     def add(self, center, half_extents, material, mass, *, blocked=None, fixed=False, load=None,
             direction=(0.0, 0.0, -1.0), velocity=(0.0, 0.0, 0.0), damping=0.0, name="", members=None,
-            member_radius=None):
+            member_radius=None, inertia=None, load_point=(0.0, 0.0, 0.0)):
         """Validate and append one box; returns its index. ``members`` [k, 3] (centres relative to
         the box centre [m]) with ``member_radius`` [m] give it a surface of spheres of its material
-        instead of flat faces."""
+        instead of flat faces. ``inertia`` and ``load_point`` matter for a box with free rotations
+        (module docstring)."""
         label = f"boxes.{name}" if name else f"boxes[{len(self)}]"
         c = vector3(f"{label}.center", center)
         h = vector3(f"{label}.half_extents", half_extents)
@@ -137,6 +286,11 @@ class Boxes:
         m = number(f"{label}.mass", mass, 0.0, lo_open=True, allow="a number > 0 [kg]")
         lam = number(f"{label}.damping", damping, 0.0, 0.99, allow="in [0, 0.99] (Cundall's lambda_D)")
         mask = blocked_mask(label, blocked, fixed)
+        if members is not None and mask & ROTATIONS != ROTATIONS:
+            raise InputError(f"{label}.blocked = {blocked!r}: a box with member spheres does not rotate, so it must "
+                             "contain X, Y and Z (e.g. 'xyXYZ' for z translation only)")
+        moments, axes = principal_inertia(label, inertia, m, h)
+        arm = vector3(f"{label}.load_point", load_point)
         if load is not None and not isinstance(load, (Constant, Haversine, Impulse, SleeperLoad)):
             raise InputError(
                 f"{label}.load = {load!r}: must be None or a pdem.boundaries.loads program (Haversine, Constant, "
@@ -146,7 +300,7 @@ class Boxes:
         norm = float(np.sqrt(d @ d))
         if not norm > 0.0:
             raise InputError(f"{label}.direction = {d.tolist()}: must be a non-zero vector")
-        self.kernel_f = np.vstack([self.kernel_f, np.concatenate([c, h, v])[None]])
+        self.kernel_f = np.vstack([self.kernel_f, np.concatenate([c, h, v, np.eye(3).ravel(), np.zeros(3)])[None]])
         self.kernel_i = np.vstack([self.kernel_i, np.array([[material]], np.int64)])
         self.mass = np.append(self.mass, m)
         self.blocked = np.append(self.blocked, np.int64(mask))
@@ -154,7 +308,13 @@ class Boxes:
         self.direction = np.vstack([self.direction, (d / norm)[None]])
         self.loads.append(load)
         self.names.append(name or str(len(self.names)))
+        self.ori = np.vstack([self.ori, quaternion_of(axes)[None]])
+        self.angmom = np.vstack([self.angmom, np.zeros((1, 3))])
+        self.inertia = np.vstack([self.inertia, moments[None]])
+        self.axes = np.concatenate([self.axes, axes[None]])
+        self.load_point = np.vstack([self.load_point, arm[None]])
         self.contact_force = np.zeros((len(self), 3))
+        self.contact_torque = np.zeros((len(self), 3))
         self.load_force = np.zeros((len(self), 3))
         if members is not None:
             self.members.add(label, len(self) - 1, members, member_radius, material, h)
@@ -190,11 +350,23 @@ class Boxes:
         self.load_force = self.applied(t)
         moved = leapfrog_boxes(self.kernel_f, self.blocked, self.damping, self.mass, self.contact_force,
                                self.load_force, np.asarray(gravity, np.float64), dt)
+        if self.oriented_count():
+            torque = self.contact_torque + np.cross(np.einsum("bak,bk->ba", self.rotation, self.load_point),
+                                                    self.load_force)
+            moved += rotate_boxes(self.kernel_f, self.blocked, self.damping, self.ori, self.angmom, self.inertia,
+                                  self.axes, torque, dt)
         self.place_members()
         return moved
 
     def spec(self):
         """JSON-able description (initial state as declared)."""
+        out = self._translation_spec()
+        for b in np.flatnonzero(self.rotating):
+            out[b].update(inertia=self.inertia[b].tolist(), axes=self.axes[b].tolist(),
+                          load_point=self.load_point[b].tolist())
+        return out
+
+    def _translation_spec(self):
         return [
             dict(
                 name=n,

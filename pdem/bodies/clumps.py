@@ -92,6 +92,70 @@ def sum_member_forces(nc, mptr, mrow, cpos, force, torque, pos, cforce, ctorque)
         ctorque[c, 2] = tz
 
 
+@njit(inline="always", cache=True)
+def aspherical_rotate(qw, qx, qy, qz, angmom, tx0, ty0, tz0, angvel, inertia, damping, dt):
+    """Yade's leapfrogAsphericalRotate (exactAsphericalRot) of one body: orientation q (w, x, y, z,
+    body = principal frame → global), angular momentum ``angmom`` [3] (global, updated in place),
+    torque (tx0, ty0, tz0) [N·m] Cundall-damped against the last ``angvel`` [3] [rad/s], principal
+    ``inertia`` [3] [kg·m²]; returns the new q (not normalised) and ω [rad/s] (module docstring)."""
+    t0 = tx0 * (1.0 - damping * _sign(tx0 * angvel[0]))
+    t1 = ty0 * (1.0 - damping * _sign(ty0 * angvel[1]))
+    t2 = tz0 * (1.0 - damping * _sign(tz0 * angvel[2]))
+    # A = R(conj(q)) (Eigen's toRotationMatrix of (w, -x, -y, -z))
+    ax_ = -qx
+    ay_ = -qy
+    az_ = -qz
+    tx = 2.0 * ax_
+    ty = 2.0 * ay_
+    tz = 2.0 * az_
+    twx = tx * qw
+    twy = ty * qw
+    twz = tz * qw
+    txx = tx * ax_
+    txy = ty * ax_
+    txz = tz * ax_
+    tyy = ty * ay_
+    tyz = tz * ay_
+    tzz = tz * az_
+    a00 = 1.0 - (tyy + tzz)
+    a01 = txy - twz
+    a02 = txz + twy
+    a10 = txy + twz
+    a11 = 1.0 - (txx + tzz)
+    a12 = tyz - twx
+    a20 = txz - twy
+    a21 = tyz + twx
+    a22 = 1.0 - (txx + tyy)
+    h = dt / 2.0
+    l0 = angmom[0] + h * t0
+    l1 = angmom[1] + h * t1
+    l2 = angmom[2] + h * t2
+    w0 = dot3(a00, a01, a02, l0, l1, l2) / inertia[0]
+    w1 = dot3(a10, a11, a12, l0, l1, l2) / inertia[1]
+    w2 = dot3(a20, a21, a22, l0, l1, l2) / inertia[2]
+    dw, dx, dy, dz = _dot_q(w0, w1, w2, qw, qx, qy, qz)
+    hw = qw + h * dw
+    hx = qx + h * dx
+    hy = qy + h * dy
+    hz = qz + h * dz
+    l0 = angmom[0] + dt * t0
+    l1 = angmom[1] + dt * t1
+    l2 = angmom[2] + dt * t2
+    angmom[0] = l0
+    angmom[1] = l1
+    angmom[2] = l2
+    w0 = dot3(a00, a01, a02, l0, l1, l2) / inertia[0]
+    w1 = dot3(a10, a11, a12, l0, l1, l2) / inertia[1]
+    w2 = dot3(a20, a21, a22, l0, l1, l2) / inertia[2]
+    dw, dx, dy, dz = _dot_q(w0, w1, w2, hw, hx, hy, hz)
+    qw = qw + dt * dw
+    qx = qx + dt * dx
+    qy = qy + dt * dy
+    qz = qz + dt * dz
+    ox, oy, oz = _qrot(qw, qx, qy, qz, w0, w1, w2)
+    return qw, qx, qy, qz, ox, oy, oz
+
+
 @kernel()
 def leapfrog_clumps(nc, cpos, cvel, cangvel, cangmom, cori, cmass, cinertia, casph, cforce, ctorque, mptr, mrow,
                     relpos, pos, vel, angvel, gravity, damping, dt):
@@ -109,61 +173,8 @@ def leapfrog_clumps(nc, cpos, cvel, cangvel, cangmom, cori, cmass, cinertia, cas
         qy = cori[c, 2]
         qz = cori[c, 3]
         if casph[c]:
-            t0 = ctorque[c, 0] * (1.0 - damping * _sign(ctorque[c, 0] * cangvel[c, 0]))
-            t1 = ctorque[c, 1] * (1.0 - damping * _sign(ctorque[c, 1] * cangvel[c, 1]))
-            t2 = ctorque[c, 2] * (1.0 - damping * _sign(ctorque[c, 2] * cangvel[c, 2]))
-            # A = R(conj(q)) (Eigen's toRotationMatrix of (w, -x, -y, -z))
-            ax_ = -qx
-            ay_ = -qy
-            az_ = -qz
-            tx = 2.0 * ax_
-            ty = 2.0 * ay_
-            tz = 2.0 * az_
-            twx = tx * qw
-            twy = ty * qw
-            twz = tz * qw
-            txx = tx * ax_
-            txy = ty * ax_
-            txz = tz * ax_
-            tyy = ty * ay_
-            tyz = tz * ay_
-            tzz = tz * az_
-            a00 = 1.0 - (tyy + tzz)
-            a01 = txy - twz
-            a02 = txz + twy
-            a10 = txy + twz
-            a11 = 1.0 - (txx + tzz)
-            a12 = tyz - twx
-            a20 = txz - twy
-            a21 = tyz + twx
-            a22 = 1.0 - (txx + tyy)
-            h = dt / 2.0
-            l0 = cangmom[c, 0] + h * t0
-            l1 = cangmom[c, 1] + h * t1
-            l2 = cangmom[c, 2] + h * t2
-            w0 = dot3(a00, a01, a02, l0, l1, l2) / cinertia[c, 0]
-            w1 = dot3(a10, a11, a12, l0, l1, l2) / cinertia[c, 1]
-            w2 = dot3(a20, a21, a22, l0, l1, l2) / cinertia[c, 2]
-            dw, dx, dy, dz = _dot_q(w0, w1, w2, qw, qx, qy, qz)
-            hw = qw + h * dw
-            hx = qx + h * dx
-            hy = qy + h * dy
-            hz = qz + h * dz
-            l0 = cangmom[c, 0] + dt * t0
-            l1 = cangmom[c, 1] + dt * t1
-            l2 = cangmom[c, 2] + dt * t2
-            cangmom[c, 0] = l0
-            cangmom[c, 1] = l1
-            cangmom[c, 2] = l2
-            w0 = dot3(a00, a01, a02, l0, l1, l2) / cinertia[c, 0]
-            w1 = dot3(a10, a11, a12, l0, l1, l2) / cinertia[c, 1]
-            w2 = dot3(a20, a21, a22, l0, l1, l2) / cinertia[c, 2]
-            dw, dx, dy, dz = _dot_q(w0, w1, w2, hw, hx, hy, hz)
-            qw = qw + dt * dw
-            qx = qx + dt * dx
-            qy = qy + dt * dy
-            qz = qz + dt * dz
-            ox, oy, oz = _qrot(qw, qx, qy, qz, w0, w1, w2)
+            qw, qx, qy, qz, ox, oy, oz = aspherical_rotate(qw, qx, qy, qz, cangmom[c], ctorque[c, 0], ctorque[c, 1],
+                                                           ctorque[c, 2], cangvel[c], cinertia[c], damping, dt)
             cangvel[c, 0] = ox
             cangvel[c, 1] = oy
             cangvel[c, 2] = oz

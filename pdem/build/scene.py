@@ -318,22 +318,26 @@ class Scene:
 
     def add_box(self, center, half_extents, material, mass, *, blocked=None, fixed=False, load=None,
                 direction=(0.0, 0.0, -1.0), velocity=(0.0, 0.0, 0.0), damping=0.0, name="", members=None,
-                member_radius=None):
-        """Add a rigid axis-aligned box (sleeper, platen): one body of `mass` [kg] spanning
+                member_radius=None, inertia=None, load_point=(0.0, 0.0, 0.0)):
+        """Add a rigid box (sleeper, platen): one body of `mass` [kg] spanning
         ``center ± half_extents`` [m]; returns its index.
 
         `fixed` blocks every DOF (the box still moves with `velocity` [m/s]); `blocked` is a
-        string of blocked DOFs from "xyzXYZ" and must contain XYZ (boxes do not rotate; default
-        "XYZ": free translations). `load` is a `pdem.boundaries.loads` program (e.g. `Haversine`) whose
-        magnitude [N] pushes along `direction` (default −z); `damping` is the box's own Cundall
-        λ_D (default 0: the box is not damped). `members` [k, 3] (centres relative to `center`
+        string of blocked DOFs from "xyzXYZ" (default "XYZ": free translations, the box stays
+        axis-aligned); a box without some of X, Y, Z turns about those global axes (e.g. "xyXZ": z
+        and the tilt about y), with principal `inertia` [kg·m²] (default the solid cuboid; 3 moments
+        or a symmetric positive definite 3×3 tensor in the box's axes) and its load applied at
+        `load_point` (box axes, from the centre [m]): `pdem.bodies.boxes`. `load` is a
+        `pdem.boundaries.loads` program (e.g. `Haversine`) whose magnitude [N] pushes along
+        `direction` (default −z); `damping` is the box's own Cundall λ_D (default 0: the box is not
+        damped). `members` [k, 3] (centres relative to `center`
         [m]) of spheres of `member_radius` [m] of the box's material replace its flat faces: the
-        thesis's clump sleeper (`pdem.bodies.boxes.BoxMembers`)."""
+        thesis's clump sleeper (`pdem.bodies.boxes.BoxMembers`; such a box cannot rotate)."""
         label = f"boxes.{name}" if name else f"boxes[{len(self.boxes)}]"
         m = self._material_index(f"{label}.material", material)
         return self.boxes.add(center, half_extents, m, mass, blocked=blocked, fixed=fixed, load=load,
                               direction=direction, velocity=velocity, damping=damping, name=name, members=members,
-                              member_radius=member_radius)
+                              member_radius=member_radius, inertia=inertia, load_point=load_point)
 
     # ------------------------------------------------------------------ build
     def spheres(self):

@@ -39,7 +39,8 @@ loop (`pdem.contact.loops`) calls; a geometry knows nothing of forces (that is t
 Boundary rows (``other_f``, ``other_i``, one row per wall, facet or box) are laid out by the
 containers: `pdem.boundaries.walls.Walls` (f: position, velocity; i: axis, sense, material),
 `pdem.boundaries.facets.Facets` (f: FACET_COLUMNS of geometry, velocity; i: material) and
-`pdem.bodies.boxes.Boxes` (f: centre, half extents, velocity; i: material).
+`pdem.bodies.boxes.Boxes` (f: centre, half extents, velocity, rotation box → global (row-major),
+angular velocity; i: material).
 
 Every 3-vector product follows Yade's Eigen evaluation order (`pdem.vec`), so results are
 bit-identical to Yade's. Imports numba and `pdem.vec` only.
@@ -349,17 +350,9 @@ class SphereFacet:
 
 # ---------------------------------------------------------------------------- sphere–box
 @njit(inline="always", cache=True)
-def _box_contact(fresh, s, b, pos, radius, other_f, other_i):
-    """Closest point q of the box to the centre x (clamp per axis); outside: n = (x − q)/|x − q|,
-    pen = r − |x − q| (face, edge or corner); centre inside: out through the nearest face,
-    n = ±e_a, pen = r + (h_a − |x_a − c_a|) (ties: x before y before z)."""
-    r = radius[s]
-    dx = pos[s, 0] - other_f[b, 0]
-    dy = pos[s, 1] - other_f[b, 1]
-    dz = pos[s, 2] - other_f[b, 2]
-    hx = other_f[b, 3]
-    hy = other_f[b, 4]
-    hz = other_f[b, 5]
+def _closest_on_box(fresh, r, dx, dy, dz, hx, hy, hz):
+    """Contact of a sphere of radius r whose centre is at (dx, dy, dz) from the centre of a box of
+    half extents (hx, hy, hz), in the box's axes (see `_box_contact`)."""
     ex = dx - min(max(dx, -hx), hx)
     ey = dy - min(max(dy, -hy), hy)
     ez = dz - min(max(dz, -hz), hz)
@@ -391,6 +384,15 @@ def _box_contact(fresh, s, b, pos, radius, other_f, other_i):
 
 
 @njit(inline="always", cache=True)
+def _box_contact(fresh, s, b, pos, radius, other_f, other_i):
+    """Closest point q of the box to the centre x (clamp per axis); outside: n = (x − q)/|x − q|,
+    pen = r − |x − q| (face, edge or corner); centre inside: out through the nearest face,
+    n = ±e_a, pen = r + (h_a − |x_a − c_a|) (ties: x before y before z)."""
+    return _closest_on_box(fresh, radius[s], pos[s, 0] - other_f[b, 0], pos[s, 1] - other_f[b, 1],
+                           pos[s, 2] - other_f[b, 2], other_f[b, 3], other_f[b, 4], other_f[b, 5])
+
+
+@njit(inline="always", cache=True)
 def _box_ip2(s, b, radius, material, mass, other_f, other_i):
     return _boundary_ip2(s, b, radius, material, mass, other_i, 0, 1.0)
 
@@ -418,6 +420,69 @@ class SphereBox:
     spins = _sphere_spins
     relative_velocity = _box_relative_velocity
     contact_velocity = _box_contact_velocity
+    levers = _sphere_lever
+    contact_point = _sphere_contact_point
+
+# ---------------------------------------------------------------------------- sphere–oriented box
+@njit(inline="always", cache=True)
+def _to_world(g, b, x, y, z):
+    """R v for the box row b (R box → global at columns 9–17, row-major)."""
+    return (dot3(g[b, 9], g[b, 10], g[b, 11], x, y, z), dot3(g[b, 12], g[b, 13], g[b, 14], x, y, z),
+            dot3(g[b, 15], g[b, 16], g[b, 17], x, y, z))
+
+
+@njit(inline="always", cache=True)
+def _oriented_box_contact(fresh, s, b, pos, radius, other_f, other_i):
+    """`_box_contact` in the box's own axes: the centre's offset d into the box frame (Rᵀ d), the
+    closest point and normal there, the normal back to the global frame (R n)."""
+    g = other_f
+    dx = pos[s, 0] - g[b, 0]
+    dy = pos[s, 1] - g[b, 1]
+    dz = pos[s, 2] - g[b, 2]
+    lx = dot3(g[b, 9], g[b, 12], g[b, 15], dx, dy, dz)
+    ly = dot3(g[b, 10], g[b, 13], g[b, 16], dx, dy, dz)
+    lz = dot3(g[b, 11], g[b, 14], g[b, 17], dx, dy, dz)
+    status, nx, ny, nz, pen = _closest_on_box(fresh, radius[s], lx, ly, lz, g[b, 3], g[b, 4], g[b, 5])
+    if status == SKIP:
+        return status, nx, ny, nz, pen
+    wx, wy, wz = _to_world(g, b, nx, ny, nz)
+    return status, wx, wy, wz, pen
+
+
+@njit(inline="always", cache=True)
+def _point_velocity(s, b, nx, ny, nz, pen, pos, radius, g):
+    """Velocity [m/s] of the box's material point at the contact point x − (r − pen/2) n:
+    v_b + ω_b × (point − centre)."""
+    lever = radius[s] - 0.5 * pen
+    ox, oy, oz = cross3(g[b, 18], g[b, 19], g[b, 20], (pos[s, 0] - lever * nx) - g[b, 0],
+                        (pos[s, 1] - lever * ny) - g[b, 1], (pos[s, 2] - lever * nz) - g[b, 2])
+    return g[b, 6] + ox, g[b, 7] + oy, g[b, 8] + oz
+
+
+@njit(inline="always", cache=True)
+def _oriented_box_relative_velocity(s, b, nx, ny, nz, pen, pos, vel, angvel, radius, other_f):
+    bvx, bvy, bvz = _point_velocity(s, b, nx, ny, nz, pen, pos, radius, other_f)
+    return _flat_relative_velocity(s, nx, ny, nz, pen, vel, angvel, radius, bvx, bvy, bvz)
+
+
+@njit(inline="always", cache=True)
+def _oriented_box_contact_velocity(s, b, nx, ny, nz, pen, pos, vel, angvel, radius, other_f):
+    bvx, bvy, bvz = _point_velocity(s, b, nx, ny, nz, pen, pos, radius, other_f)
+    return _flat_contact_velocity(s, nx, ny, nz, pen, vel, angvel, radius, bvx, bvy, bvz)
+
+
+class SphereOrientedBox:
+    """A sphere on a rigid box with free rotations (`pdem.bodies.boxes`, rows with the rotation R
+    box → global at columns 9–17 and ω at 18–20): the box contact in the box's axes, the box's
+    velocity taken at the contact point (v_b + ω_b × (x_c − c_b)); otherwise as `SphereBox`."""
+
+    name = "sphere_oriented_box"
+    TWO_PARTICLES = False
+    contact = _oriented_box_contact
+    ip2_args = _box_ip2
+    spins = _sphere_spins
+    relative_velocity = _oriented_box_relative_velocity
+    contact_velocity = _oriented_box_contact_velocity
     levers = _sphere_lever
     contact_point = _sphere_contact_point
 
@@ -471,4 +536,4 @@ class SphereMember:
     contact_point = _sphere_contact_point
 
 
-GEOMETRIES = {g.name: g for g in (SphereSphere, SphereWall, SphereFacet, SphereBox, SphereMember)}
+GEOMETRIES = {g.name: g for g in (SphereSphere, SphereWall, SphereFacet, SphereBox, SphereOrientedBox, SphereMember)}

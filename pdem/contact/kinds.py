@@ -7,8 +7,8 @@ generated force loop (`pdem.contact.loops`, geometry × the scene's law) and the
 observables, migration between slabs, checkpoints) iterates `Simulation.kinds`, so a new kind is
 one class here and one line in `make_kinds`.
 
-Order of `make_kinds` (sphere pairs, walls, facets, boxes) is the order in which each body's
-force is summed: partners by gid, then walls, facets and boxes by index (`pdem.contact.forces`).
+Order of `make_kinds` (sphere pairs, walls, facets, boxes, rotating boxes, box members) is the order
+in which each body's force is summed: partners by gid, then walls, facets and boxes by index (`pdem.contact.forces`).
 Checkpoint tables are named ``contacts/<kind name>``.
 """
 import numpy as np
@@ -16,7 +16,7 @@ import numpy as np
 from . import forces, neighbors
 from ..bodies.clumps import drop_same_clump
 from .store import KEY_SHIFT_SPHERE, ContactList, index_pair_keys, sphere_pair_keys
-from .geometry import SphereBox, SphereFacet, SphereMember, SphereSphere, SphereWall
+from .geometry import SphereBox, SphereFacet, SphereMember, SphereOrientedBox, SphereSphere, SphereWall
 from .loops import NORMAL_COLUMNS, make_pair_loop
 
 _NO_ROWS_F = np.zeros((0, 1))
@@ -153,17 +153,18 @@ class BoundaryContacts(ContactKind):
     """Spheres against replicated boundaries (walls, facets, boxes): candidates per owned sphere
     in boundary index order; the row holds the force on the sphere."""
 
-    def __init__(self, geometry, law, boundary, candidates, body_of=None, n_bodies=None):
+    def __init__(self, geometry, law, boundary, candidates, body_of=None, n_bodies=None, search=None):
         super().__init__(geometry, law)
         self.boundary = boundary
         self._candidates = candidates
+        self._search = boundary.search_arrays if search is None else search  # the candidates' boundary arrays
         # the body each boundary row belongs to (a box member: its box) and how many bodies
         self.body_of = np.arange(len(boundary)) if body_of is None else np.ascontiguousarray(body_of, np.int64)
         self.n_bodies = len(boundary) if n_bodies is None else n_bodies
 
     def rebuild(self, sim, cell):
         p = sim.particles
-        self.ptr, ps, pb = self._candidates(p.pos, p.radius, p.n_local, sim.skin, *self.boundary.search_arrays())
+        self.ptr, ps, pb = self._candidates(p.pos, p.radius, p.n_local, sim.skin, *self._search())
         self.contacts.replace(ps, pb, index_pair_keys(ps, pb, p.gid))
         self.rows = np.arange(len(ps), dtype=np.int32)
 
@@ -192,6 +193,27 @@ class BoundaryContacts(ContactKind):
         return comm.exact_sum_groups(k, self.body_of[self.contacts.j[rows]], self.n_bodies).reshape(-1)
 
 
+class OrientedBoxContacts(BoundaryContacts):
+    """Spheres on the rigid boxes with free rotations (`SphereOrientedBox`): also the moment of
+    their forces about each box's centre."""
+
+    def __init__(self, law, boxes):
+        super().__init__(SphereOrientedBox, law, boxes, neighbors.build_box_candidates,
+                         search=boxes.oriented_search_arrays)
+
+    def torques(self, sim):
+        """[n_boxes, 3] Σ (x_c − c_b) × f_b [N·m] over each box's real contacts, f_b the force on
+        the box at the contact point x_c = x − (r − pen/2) n: per row from the row alone, then an
+        exact sum over all ranks (the same bits whatever the rank count)."""
+        c, p = self.contacts, sim.particles
+        rows = c.real_rows()
+        s, b = c.i[rows], c.j[rows]
+        normal = c.history[rows, self.normal_column: self.normal_column + 3]
+        lever = p.radius[s] - 0.5 * c.overlap[rows]
+        arm = (p.pos[s] - lever[:, None] * normal) - self.boundary.center[b]
+        return sim.comm.exact_sum_groups(np.cross(arm, -c.force[rows]), b, len(self.boundary))
+
+
 def make_kinds(law, walls, facets, boxes):
     """The contact kinds of a scene with these boundaries (only those it has), in summation order."""
     kinds = [SpherePairs(law)]
@@ -201,6 +223,8 @@ def make_kinds(law, walls, facets, boxes):
         kinds.append(BoundaryContacts(SphereFacet, law, facets, neighbors.build_facet_candidates))
     if boxes.smooth_count():
         kinds.append(BoundaryContacts(SphereBox, law, boxes, neighbors.build_box_candidates))
+    if boxes.oriented_count():  # only a scene with a rotating box has this kind
+        kinds.append(OrientedBoxContacts(law, boxes))
     if len(boxes.members):
         kinds.append(BoundaryContacts(SphereMember, law, boxes.members, neighbors.build_member_candidates,
                                       body_of=boxes.members.box, n_bodies=len(boxes)))
@@ -208,5 +232,6 @@ def make_kinds(law, walls, facets, boxes):
 
 
 def box_kinds(kinds):
-    """The kinds among ``kinds`` whose forces act on the rigid boxes (flat faces, member spheres)."""
-    return [k for k in kinds if k.name in ("sphere_box", "sphere_member")]
+    """The kinds among ``kinds`` whose forces act on the rigid boxes (flat faces, rotating boxes, member
+    spheres)."""
+    return [k for k in kinds if k.name in ("sphere_box", "sphere_oriented_box", "sphere_member")]

@@ -9,7 +9,8 @@ Tables: ``particles`` (`pdem.bodies.state.FIELDS` of the owned bodies, key gid),
 ``contacts/<kind>`` (real contacts of each kind of `Simulation.kinds`: key, params, history; a
 pair that straddles a slab edge is held, bit for bit identical, by both ranks and the writer
 keeps one copy), ``walls`` (index, position, velocity), ``facets`` (index, geom, vertices,
-velocity) and ``boxes`` (index, center, velocity), replicated on every rank; with rigid clumps
+velocity) and ``boxes`` (index, center, velocity; with a rotating box also ori, angmom, angvel and
+rotation, `pdem.bodies.boxes`), replicated on every rank; with rigid clumps
 ``clumps`` (id, pos, vel, angvel, angmom, ori, mass, inertia, aspherical; `pdem.bodies.clumps`) and
 ``clump_members`` (gid, clump, relpos), written by the rank that owns each clump. Bonds of
 breakable clumps are contacts (``contacts/sphere_sphere``, the law's history).
@@ -23,6 +24,8 @@ from ..bodies.clump_setup import check_tables, owner_positions
 from ..bodies.clumps import CLUMP_TABLE, MEMBER_TABLE, empty_clump_table, empty_member_table, extent_of
 from ..bodies.state import FIELDS, with_defaults
 from ..timestep import update_dt
+
+BOX_ROTATION = ("ori", "angmom", "angvel", "rotation")  # columns of the boxes table of a scene with rotating boxes
 
 
 def _boundary_tables(sim):
@@ -38,6 +41,8 @@ def _boundary_tables(sim):
     if sim.boxes is not None:  # rigid boxes (pdem.bodies.boxes): the state their step evolves
         out["boxes"] = {"index": np.arange(len(sim.boxes), dtype=np.int64), "center": sim.boxes.center.copy(),
                         "velocity": sim.boxes.velocity.copy()}
+        if sim.boxes.oriented_count():  # boxes with free rotations: their turning state too
+            out["boxes"].update({k: getattr(sim.boxes, k).copy().reshape(len(sim.boxes), -1) for k in BOX_ROTATION})
     return out
 
 
@@ -174,6 +179,10 @@ def load_state(sim, tables):
     if sim.boxes is not None and "boxes" in tables:
         sim.boxes.center[:] = tables["boxes"]["center"]
         sim.boxes.velocity[:] = tables["boxes"]["velocity"]
+        if "ori" in tables["boxes"]:
+            b = tables["boxes"]
+            sim.boxes.ori[:], sim.boxes.angmom[:], sim.boxes.angvel[:] = b["ori"], b["angmom"], b["angvel"]
+            sim.boxes.kernel_f[:, 9:18] = np.asarray(b["rotation"]).reshape(-1, 9)
         sim.boxes.place_members()
     # contacts: every rank gets every row; `replace` at the rebuild keeps the keys it needs
     for kind in sim.kinds:
