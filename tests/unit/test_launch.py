@@ -28,7 +28,8 @@ else:
     sim = scene.build()
 sim.run(20)
 n = sim.particles.n_local
-print(sim.comm.rank, sim.comm.size, n, sim.comm.allreduce_sum_int(n), flush=True)
+row = f"{sim.comm.rank} {sim.comm.size} {n} {sim.comm.allreduce_sum_int(n)}"
+open(f"{sys.argv[2]}/rank_{sim.comm.rank}.txt", "w").write(row)  # a file each: ranks' stdout may interleave
 """
 
 
@@ -45,13 +46,13 @@ def child_env(**extra):
 def test_readme_api_under_mpiexec_builds_one_decomposed_simulation(tmp_path, how):
     script = tmp_path / "script.py"
     script.write_text(SCRIPT)
-    r = subprocess.run([str(MPIEXEC), "-n", "2", sys.executable, str(script), how], capture_output=True, text=True,
-                       timeout=600, env=child_env())
+    r = subprocess.run([str(MPIEXEC), "-n", "2", sys.executable, str(script), how, str(tmp_path)], capture_output=True,
+                       text=True, timeout=600, env=child_env())
     assert r.returncode == 0, r.stdout[-3000:] + r.stderr[-3000:]
-    rows = sorted(tuple(int(x) for x in line.split()) for line in r.stdout.splitlines())
-    assert [(rank, size) for rank, size, _, _ in rows] == [(0, 2), (1, 2)], r.stdout
-    assert {total for *_, total in rows} == {96}, r.stdout
-    assert all(0 < owned < 96 for _, _, owned, _ in rows) and sum(owned for _, _, owned, _ in rows) == 96, r.stdout
+    rows = sorted(tuple(int(x) for x in p.read_text().split()) for p in tmp_path.glob("rank_*.txt"))
+    assert [(rank, size) for rank, size, _, _ in rows] == [(0, 2), (1, 2)], rows
+    assert {total for *_, total in rows} == {96}, rows
+    assert all(0 < owned < 96 for _, _, owned, _ in rows) and sum(owned for _, _, owned, _ in rows) == 96, rows
 
 
 @pytest.mark.parametrize("var", ["SLURM_STEP_NUM_TASKS", "OMPI_COMM_WORLD_SIZE"])
