@@ -50,7 +50,8 @@ from numba import njit
 
 from ..errors import InputError
 from ..boundaries.loads import Constant, Haversine, Impulse, SleeperLoad
-from .clumps import aspherical_rotate
+from .clump_properties import qnormalize, quaternion_from_matrix
+from .clumps import aspherical_rotate, normalised, rotation_matrix
 from .state import DOF_ALL
 from ..build.validate import number, vector3
 
@@ -132,24 +133,6 @@ def principal_inertia(label, inertia, mass, half):
     return moments, axes
 
 
-def quaternion_of(matrix):
-    """Unit quaternion (w, x, y, z) of a rotation matrix (Shepperd's method)."""
-    m = np.asarray(matrix, float)
-    tr = np.trace(m)
-    k = int(np.argmax([tr, m[0, 0], m[1, 1], m[2, 2]]))
-    if k == 0:
-        w = 0.5 * sqrt(1.0 + tr)
-        q = [w, (m[2, 1] - m[1, 2]) / (4 * w), (m[0, 2] - m[2, 0]) / (4 * w), (m[1, 0] - m[0, 1]) / (4 * w)]
-    else:
-        i, j, l = k - 1, k % 3, (k + 1) % 3
-        v = 0.5 * sqrt(1.0 + m[i, i] - m[j, j] - m[l, l])
-        q = np.zeros(4)
-        q[0] = (m[l, j] - m[j, l]) / (4 * v)
-        q[1 + i], q[1 + j], q[1 + l] = v, (m[j, i] + m[i, j]) / (4 * v), (m[l, i] + m[i, l]) / (4 * v)
-    q = np.asarray(q, float)
-    return q / np.linalg.norm(q)
-
-
 @njit(cache=True)
 def rotate_boxes(kernel_f, blocked, damping, ori, angmom, inertia, axes, torque, dt):
     """Turn every box with a free rotation: torque (about free global axes) into L and q by
@@ -159,17 +142,12 @@ def rotate_boxes(kernel_f, blocked, damping, ori, angmom, inertia, axes, torque,
     for b in range(blocked.shape[0]):
         if blocked[b] & ROTATIONS == ROTATIONS:
             continue
-        t = np.zeros(3)
-        for k in range(3):
-            if not blocked[b] & (8 << k):
-                t[k] = torque[b, k]
-        qw, qx, qy, qz, ox, oy, oz = aspherical_rotate(ori[b, 0], ori[b, 1], ori[b, 2], ori[b, 3], angmom[b], t[0],
-                                                       t[1], t[2], kernel_f[b, 18:21], inertia[b], damping[b], dt)
-        qn = sqrt((qx * qx + qy * qy) + (qz * qz + qw * qw))
-        qw = qw / qn
-        qx = qx / qn
-        qy = qy / qn
-        qz = qz / qn
+        tx = 0.0 if blocked[b] & 8 else torque[b, 0]
+        ty = 0.0 if blocked[b] & 16 else torque[b, 1]
+        tz = 0.0 if blocked[b] & 32 else torque[b, 2]
+        qw, qx, qy, qz, ox, oy, oz = aspherical_rotate(ori[b, 0], ori[b, 1], ori[b, 2], ori[b, 3], angmom[b], tx, ty,
+                                                       tz, kernel_f[b, 18:21], inertia[b], damping[b], dt)
+        qw, qx, qy, qz = normalised(qw, qx, qy, qz)
         ori[b, 0] = qw
         ori[b, 1] = qx
         ori[b, 2] = qy
@@ -177,43 +155,15 @@ def rotate_boxes(kernel_f, blocked, damping, ori, angmom, inertia, axes, torque,
         w = (ox, oy, oz)
         for k in range(3):
             kernel_f[b, 18 + k] = 0.0 if blocked[b] & (8 << k) else w[k]
-        rp = _rotation_matrix(qw, qx, qy, qz)
+        rp = rotation_matrix(qw, qx, qy, qz)
         for a in range(3):
             for k in range(3):
-                kernel_f[b, 9 + 3 * a + k] = (rp[a, 0] * axes[b, k, 0] + rp[a, 1] * axes[b, k, 1]
-                                              + rp[a, 2] * axes[b, k, 2])
+                kernel_f[b, 9 + 3 * a + k] = (rp[3 * a] * axes[b, k, 0] + rp[3 * a + 1] * axes[b, k, 1]
+                                              + rp[3 * a + 2] * axes[b, k, 2])
         w2 = kernel_f[b, 18] ** 2 + kernel_f[b, 19] ** 2 + kernel_f[b, 20] ** 2
         h2 = kernel_f[b, 3] ** 2 + kernel_f[b, 4] ** 2 + kernel_f[b, 5] ** 2
         turned = max(turned, sqrt(w2 * h2) * dt)
     return turned
-
-
-@njit(cache=True)
-def _rotation_matrix(qw, qx, qy, qz):
-    """R(q) of a unit quaternion (Eigen's toRotationMatrix)."""
-    tx = 2.0 * qx
-    ty = 2.0 * qy
-    tz = 2.0 * qz
-    twx = tx * qw
-    twy = ty * qw
-    twz = tz * qw
-    txx = tx * qx
-    txy = ty * qx
-    txz = tz * qx
-    tyy = ty * qy
-    tyz = tz * qy
-    tzz = tz * qz
-    r = np.empty((3, 3))
-    r[0, 0] = 1.0 - (tyy + tzz)
-    r[0, 1] = txy - twz
-    r[0, 2] = txz + twy
-    r[1, 0] = txy + twz
-    r[1, 1] = 1.0 - (txx + tzz)
-    r[1, 2] = tyz - twx
-    r[2, 0] = txz - twy
-    r[2, 1] = tyz + twx
-    r[2, 2] = 1.0 - (txx + tyy)
-    return r
 
 
 class Boxes:
@@ -308,7 +258,7 @@ class Boxes:
         self.direction = np.vstack([self.direction, (d / norm)[None]])
         self.loads.append(load)
         self.names.append(name or str(len(self.names)))
-        self.ori = np.vstack([self.ori, quaternion_of(axes)[None]])
+        self.ori = np.vstack([self.ori, np.array(qnormalize(quaternion_from_matrix(axes)))[None]])
         self.angmom = np.vstack([self.angmom, np.zeros((1, 3))])
         self.inertia = np.vstack([self.inertia, moments[None]])
         self.axes = np.concatenate([self.axes, axes[None]])

@@ -93,6 +93,32 @@ def sum_member_forces(nc, mptr, mrow, cpos, force, torque, pos, cforce, ctorque)
 
 
 @njit(inline="always", cache=True)
+def rotation_matrix(qw, qx, qy, qz):
+    """Eigen's Quaternion::toRotationMatrix of q = (w, x, y, z), as its 9 entries row by row."""
+    tx = 2.0 * qx
+    ty = 2.0 * qy
+    tz = 2.0 * qz
+    twx = tx * qw
+    twy = ty * qw
+    twz = tz * qw
+    txx = tx * qx
+    txy = ty * qx
+    txz = tz * qx
+    tyy = ty * qy
+    tyz = tz * qy
+    tzz = tz * qz
+    return (1.0 - (tyy + tzz), txy - twz, txz + twy, txy + twz, 1.0 - (txx + tzz), tyz - twx, txz - twy, tyz + twx,
+            1.0 - (txx + tyy))
+
+
+@njit(inline="always", cache=True)
+def normalised(qw, qx, qy, qz):
+    """q / |q| (Eigen's Quaternion::normalize)."""
+    qn = sqrt((qx * qx + qy * qy) + (qz * qz + qw * qw))
+    return qw / qn, qx / qn, qy / qn, qz / qn
+
+
+@njit(inline="always", cache=True)
 def aspherical_rotate(qw, qx, qy, qz, angmom, tx0, ty0, tz0, angvel, inertia, damping, dt):
     """Yade's leapfrogAsphericalRotate (exactAsphericalRot) of one body: orientation q (w, x, y, z,
     body = principal frame → global), angular momentum ``angmom`` [3] (global, updated in place),
@@ -101,31 +127,8 @@ def aspherical_rotate(qw, qx, qy, qz, angmom, tx0, ty0, tz0, angvel, inertia, da
     t0 = tx0 * (1.0 - damping * _sign(tx0 * angvel[0]))
     t1 = ty0 * (1.0 - damping * _sign(ty0 * angvel[1]))
     t2 = tz0 * (1.0 - damping * _sign(tz0 * angvel[2]))
-    # A = R(conj(q)) (Eigen's toRotationMatrix of (w, -x, -y, -z))
-    ax_ = -qx
-    ay_ = -qy
-    az_ = -qz
-    tx = 2.0 * ax_
-    ty = 2.0 * ay_
-    tz = 2.0 * az_
-    twx = tx * qw
-    twy = ty * qw
-    twz = tz * qw
-    txx = tx * ax_
-    txy = ty * ax_
-    txz = tz * ax_
-    tyy = ty * ay_
-    tyz = tz * ay_
-    tzz = tz * az_
-    a00 = 1.0 - (tyy + tzz)
-    a01 = txy - twz
-    a02 = txz + twy
-    a10 = txy + twz
-    a11 = 1.0 - (txx + tzz)
-    a12 = tyz - twx
-    a20 = txz - twy
-    a21 = tyz + twx
-    a22 = 1.0 - (txx + tyy)
+    # A = R(conj(q))
+    a00, a01, a02, a10, a11, a12, a20, a21, a22 = rotation_matrix(qw, -qx, -qy, -qz)
     h = dt / 2.0
     l0 = angmom[0] + h * t0
     l1 = angmom[1] + h * t1
@@ -197,11 +200,7 @@ def leapfrog_clumps(nc, cpos, cvel, cangvel, cangmom, cori, cmass, cinertia, cas
                 rz = s * (oz / wn)
                 qw, qx, qy, qz = (rw * qw - rx * qx - ry * qy - rz * qz, rw * qx + rx * qw + ry * qz - rz * qy,
                                   rw * qy + ry * qw + rz * qx - rx * qz, rw * qz + rz * qw + rx * qy - ry * qx)
-        qn = sqrt((qx * qx + qy * qy) + (qz * qz + qw * qw))
-        qw = qw / qn
-        qx = qx / qn
-        qy = qy / qn
-        qz = qz / qn
+        qw, qx, qy, qz = normalised(qw, qx, qy, qz)
         cori[c, 0] = qw
         cori[c, 1] = qx
         cori[c, 2] = qy
