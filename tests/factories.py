@@ -29,6 +29,7 @@ from pathlib import Path
 import numpy as np
 
 from pdem.bodies.clump_generators import ballast8, grain_cloud, shape_members
+from pdem.boundaries.loads import Haversine
 from pdem.build.scene import Scene
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -79,6 +80,20 @@ def lattice_scene(seed, shape, *, vx=0.0, vz=0.0, angvel=0.0, one_sided=False, m
     for axis, position, sense in ((2, 0.0, 1), (0, 0.0, 1), (0, lx, -1), (1, 0.0, 1), (1, ly, -1)):
         scene.add_wall(axis, position, m, sense=sense if one_sided else 0)
     return scene, m, (lx, ly)
+
+
+def box_on_lattice(blocked, load_point=None):
+    """A steel box (2 kg) pushed down at 0.2 m/s onto a 20 x 6 x 6 lattice moving along x, loaded by
+    two 0–5 N haversine cycles at 20 Hz (at ``load_point`` off its centre [m], if given); the slab
+    axis is x. The box moves as ``blocked`` lets it (`pdem.bodies.boxes.blocked_mask`)."""
+    nx, ny, nz = 20, 6, 6
+    scene, _, (lx, ly) = lattice_scene(7, (nx, ny, nz), vx=0.3, slab_axis=0)
+    steel = scene.material(density=7850.0, young=1e8, poisson=0.25, friction_angle=0.5)
+    top = nz * LATTICE_SPACING
+    arm = {} if load_point is None else {"load_point": (load_point[0] * lx, load_point[1] * ly, 0.0)}
+    scene.add_box((0.5 * lx, 0.5 * ly, top + 0.012), (0.4 * lx, 0.4 * ly, 0.01), steel, mass=2.0,
+                  blocked=blocked, load=Haversine(0.0, 5.0, 20.0, 2), velocity=(0.0, 0.0, -0.2), **arm)
+    return scene
 
 
 def shuffled_lattice(shape=(8, 5, 6), seed=5, spacing=0.0105):

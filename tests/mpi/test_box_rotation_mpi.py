@@ -9,9 +9,8 @@ those of a serial run of the same scene at every sample, and a checkpoint taken 
 restored onto the same ranks and onto one rank must continue to the same bits.
 """
 import numpy as np
-from factories import LATTICE_SPACING, lattice_scene
+from factories import box_on_lattice
 
-from pdem.boundaries.loads import Haversine
 from pdem.io.checkpoint import read_checkpoint, write_checkpoint
 from pdem.parallel.comm import SerialComm, configure_threads
 from pdem.parallel.slab_domain import SlabDomain
@@ -20,14 +19,7 @@ N_STEPS, EVERY, K_STEP = 3000, 50, 1650
 
 
 def make_scene():
-    nx, ny, nz = 20, 6, 6
-    scene, m, (lx, ly) = lattice_scene(7, (nx, ny, nz), vx=0.3, slab_axis=0)
-    steel = scene.material(density=7850.0, young=1e8, poisson=0.25, friction_angle=0.5)
-    top = nz * LATTICE_SPACING
-    scene.add_box((0.5 * lx, 0.5 * ly, top + 0.012), (0.4 * lx, 0.4 * ly, 0.01), steel, mass=2.0,
-                  blocked="xyZ", load=Haversine(0.0, 5.0, 20.0, 2), load_point=(0.2 * lx, 0.1 * ly, 0.0),
-                  velocity=(0.0, 0.0, -0.2))
-    return scene
+    return box_on_lattice("xyZ", load_point=(0.2, 0.1))
 
 
 def box_state(sim):
