@@ -96,8 +96,8 @@ def shape_members(shape, member_radius, radii, spacing=None):
 
 def _too_many(shape, radii, r, h, count):
     raise InputError(f"clumps.member_radius = {r:g}: shape {shape!r} of semi-axes {radii.tolist()} m holds {count} "
-                     f"members {h:g} m apart; at most {MAX_MEMBERS} are allowed (member_radius, member_spacing or radii "
-                     "in the wrong unit?)")
+                     f"members {h:g} m apart; at most {MAX_MEMBERS} are allowed (member_radius, member_spacing or "
+                     "radii in the wrong unit?)")
 
 
 def nottingham_grain(member_radius=NOTTINGHAM_MEMBER_RADIUS, spacing=None):
