@@ -19,10 +19,13 @@ SCENES = {"box_test": "pdem.scenes.box_test", "blast": "pdem.scenes.blast", "tra
 
 def find(doc):
     """(name, module) of the scene a parsed scene file asks for, or (None, None) for a plain scene."""
+    from ..errors import InputError
+
+    if "campaign" in doc and not any(k in doc for k in SCENES):
+        raise InputError("scene file.campaign: this is a campaign file, not a scene file: use `pdem campaign check`, "
+                         "`expand` or `run` with it (docs/campaigns.md)")
     named = [k for k in SCENES if k in doc]
     if len(named) > 1:
-        from ..errors import InputError
-
         raise InputError(f"scene file: tables {', '.join(named)} select different scenes; keep one")
     if not named:
         return None, None
