@@ -77,6 +77,7 @@ from ..io.checkpoint import (
 )
 from ..boundaries.loads import Impulse
 from ..build.validate import number
+from .common.bounds import plausible
 
 # [blast] keys and defaults (SPEC.md 2.5; stiffness and damping are in [materials])
 DEFAULTS = {
@@ -161,6 +162,7 @@ def blast_settings(doc):
     if "steps" in doc.get("run", {}):
         raise InputError("run.steps: not used by a blast run (its stages end on settle criteria and blast.duration); "
                          "remove it")
+    plausible("blast", c)
     return c
 
 
