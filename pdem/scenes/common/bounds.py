@@ -21,6 +21,8 @@ SLIPS = {"m": ("mm", "km"), "N": ("mN", "kN"), "kg": ("g", "t"), "kg/m": ("g/m",
 # the shared preparation of a ballast bed (pdem.scenes.common.preparation), in [track] and [oedometer]
 _PREPARATION = {
     "radius": (1e-4, 0.5, "m", "ballast grain radius: 11-32 mm; shipped scenes 16-25 mm"),
+    "overfill": (0.5, 10.0, "-", "poured volume / bed volume: 1-1.3 in the shipped scenes"),
+    "packing_fraction": (0.01, 0.74, "-", "solid fraction: 0.25-0.6, at most 0.74 (the densest packing of spheres)"),
     "settle_min_time": (0.0, 1e3, "s", "simulated seconds: 0.05-0.2 s in the shipped scenes"),
     "settle_max_time": (0.0, 1e3, "s", "simulated seconds: 0.3-3 s in the shipped scenes (about 1e5 steps each)"),
     "vibration_time": (0.0, 1e3, "s", "simulated seconds of shaking: 0-0.5 s in the shipped scenes"),
@@ -60,6 +62,8 @@ BOUNDS = {
         "diameter_min": (1e-4, 0.5, "m", "grain diameter: 9-10 mm"),
         "diameter_max": (1e-4, 0.5, "m", "grain diameter: 9-10 mm"),
         "plates": (1.0, 1e6, "kg/m^2", "cover plates: 244-10780 kg/m^2"),
+        "overfill": (0.5, 10.0, "-", "cloud volume / layer volume: 1.1"),
+        "packing_fraction": (0.01, 0.74, "-", "solid fraction: 0.6, at most 0.74 (the densest packing of spheres)"),
         "plate_thickness": (1e-3, 1.0, "m", "cover plate: 20 mm"),
         "plate_lowering_speed": (0.0, 10.0, "m/s", "0.1 m/s"),
         "plate_settle_velocity": (0.0, 1.0, "m/s", "1 mm/s"),
