@@ -112,6 +112,7 @@ PREPARED_KEYS = ("box", "grain_material", "wall_material", "side_material", "dia
 # ---------------------------------------------------------------------------- settings
 def blast_settings(doc):
     """The [blast] table with defaults, checked (one-line InputError naming the key)."""
+    check_keys("scene file", doc, {"simulation", "run", "materials", "blast"})
     given = doc["blast"]
     check_keys("blast", given, set(DEFAULTS))
     c = {**DEFAULTS, **given}

@@ -167,7 +167,9 @@ def track_settings(doc):
     r_max = c["radius"] * (1 + c["radius_spread"])
     if c["bed_depth"] < 2 * r_max:
         raise InputError(f"track.bed_depth = {c['bed_depth']!r}: must hold at least one grain (>= {2 * r_max:g} m)")
-    density = doc["materials"][c["sleeper_material"]]["density"]
+    density = number(f"materials.{c['sleeper_material']}.density",
+                     doc["materials"][c["sleeper_material"]].get("density"), 0.0, lo_open=True,
+                     allow="a finite number > 0 [kg/m³] (the sleepers' mass)")
     share = 0.5 if c["half"] else 1.0
     if "sleeper_mass" in given:
         c["sleeper_mass"] = number("track.sleeper_mass", c["sleeper_mass"], 0.0, lo_open=True, allow="a mass > 0 [kg]")

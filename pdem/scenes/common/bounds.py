@@ -18,8 +18,8 @@ SLIPS = {"m": ("mm", "km"), "N": ("mN", "kN"), "kg": ("g", "t"), "kg/m": ("g/m",
          "s": ("ms", "ks"), "m/s": ("mm/s", "km/s"), "N/m": ("N/km", "kN/m"), "N m^2": ("N mm^2", "kN m^2"),
          "Hz": ("mHz", "kHz"), "m/s^2": ("mm/s^2", "km/s^2")}
 
-# the shared preparation of a ballast bed (pdem.scenes.common.preparation), in [track] and [oedometer]
-_PREPARATION = {
+# the shared preparation of a ballast bed (pdem.scenes.common.preparation): its keys in every scene's table
+PREPARATION_BOUNDS = {
     "radius": (1e-4, 0.5, "m", "ballast grain radius: 11-32 mm; shipped scenes 16-25 mm"),
     "overfill": (0.5, 10.0, "-", "poured volume / bed volume: 1-1.3 in the shipped scenes"),
     "packing_fraction": (0.01, 0.74, "-", "solid fraction: 0.25-0.6, at most 0.74 (the densest packing of spheres)"),
@@ -31,7 +31,6 @@ _PREPARATION = {
 }
 BOUNDS = {
     "track": {
-        **_PREPARATION,
         "spacing": (0.05, 5.0, "m", "sleeper spacing: 0.6 m on main lines, 0.3 m in the scaled tests"),
         "sleeper_size": (0.01, 10.0, "m", "sleeper width, length, height: B91 0.3 x 2.6 x 0.2 m"),
         "gauge": (0.1, 5.0, "m", "track gauge: 1.435 m standard, 1 m metre gauge"),
@@ -76,8 +75,8 @@ BOUNDS = {
         "plate_settle_max_time": (0.0, 1e3, "s", "simulated seconds: 0.2 s"),
     },
     "oedometer": {
-        **_PREPARATION,
         "diameter": (0.01, 5.0, "m", "the cylinder: 300 mm (thesis), 90-180 mm scaled"),
+        "facets": (6, 1000, "-", "flat facets around the cylinder wall: 24"),
         "height": (0.005, 5.0, "m", "the sample: 150 mm (thesis)"),
         "platen_thickness": (1e-3, 1.0, "m", "the platen: 10-20 mm"),
         "platen_mass": (1e-3, 1e4, "kg", "the platen: 0.5-11 kg"),
@@ -88,10 +87,11 @@ BOUNDS = {
 }
 
 
-def plausible(section, c):
+def plausible(section, c, bounds=None):
     """Raise a one-line InputError for the first key of ``c`` (a section's checked settings,
-    numbers already finite) outside its `BOUNDS` range; list values are checked element by element."""
-    for key, (lo, hi, unit, why) in BOUNDS[section].items():
+    numbers already finite) outside its range in ``bounds`` (default ``BOUNDS[section]``); list
+    values are checked element by element."""
+    for key, (lo, hi, unit, why) in (BOUNDS[section] if bounds is None else bounds).items():
         if key not in c:
             continue
         values = c[key] if isinstance(c[key], (list, tuple)) else [c[key]]
