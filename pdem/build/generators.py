@@ -45,8 +45,8 @@ def loose_cloud(lo, hi, n, r_mean, spread=0.0, seed=0, gap=0.05):
         )
     if np.prod(counts.astype(float)) > MAX_SITES:  # the arrays of the lattice would not fit in memory
         raise InputError(f"deposition: {n} spheres of radius {r_mean:.4g} m in the box {lo.tolist()}..{hi.tolist()} "
-                         f"need a lattice of {np.prod(counts.astype(float)):.3g} sites, more than {MAX_SITES:.0e} (a radius "
-                         "given in the wrong unit?)")
+                         f"need a lattice of {np.prod(counts.astype(float)):.3g} sites, more than {MAX_SITES:.0e} "
+                         "(a radius given in the wrong unit?)")
     rng = np.random.default_rng(seed + 1)
     ix, iy, iz = np.meshgrid(*(np.arange(c) for c in counts), indexing="ij")
     sites = np.stack([ix.ravel(), iy.ravel(), iz.ravel()], axis=1)
