@@ -9,6 +9,9 @@ output directory, a checkpoint or results file that cannot be continued from), 3
 SIGTERM/SIGUSR1 after writing a checkpoint (`pdem.io.signals`), 4 unstable or runaway, 5 a
 write failed (disk full) or memory ran out.
 
+``pdem run SCENE --check`` does every check a run does at its start (`check_file`) and prints one
+line ``ok ...`` without running or writing anything.
+
 After a successful run, rank 0 launches the post-processing the run declared in its files (a
 staged scene's run_info.json, `pdem.format.run`): ``python -m analysis summary OUT`` (in this
 process), which writes summary.txt, preparation.png and analysis/. Its exit status is printed;
@@ -55,6 +58,42 @@ def run_file(path, out, steps=None, fresh=False, comm=None):
     return run_scene_file(path, doc, out, comm, steps=steps, fresh=fresh)
 
 
+def check_file(path, out, steps=None, comm=None):
+    """``pdem run SCENE --check``: load and check everything a run checks at its start, without
+    stepping or writing: the ranks' agreement on their input, the scene file (its scene's own
+    tables, run settings, materials; a plain scene is built, so its initial overlaps and the rank
+    count are checked too), the run's length and whether ``out`` could hold the output. Rank 0
+    prints one line ``ok ...``; returns 0 (a problem raises, as a run would at its start)."""
+    from .build.config import load_toml, run_settings, scene_from_dict
+    from .build.validate import number
+    from .driver.preflight import agree_on_input, check_run_length
+    from .driver.runloop import check_output
+    from .parallel.comm import get_comm
+    from .scenes import SCENES, find
+
+    comm = get_comm(comm)
+    agree_on_input(comm, path, {"out": str(out), "steps": steps, "fresh": False, "check": True})
+    if steps is not None:
+        steps = number("--steps", steps, 0, integer=True, allow="an integer >= 0 (the total steps of the run)")
+        check_run_length(f"--steps = {steps}", steps)
+    doc = load_toml(path)
+    name, scene = find(doc)
+    if scene is not None:
+        scene.check(doc)
+        what = f"[{name}] scene"
+    else:
+        sc, run = scene_from_dict(doc, scene_tables=tuple(SCENES)), run_settings(doc)
+        if steps is None:
+            check_run_length(f"run.steps = {run['steps']}", run["steps"])
+        sim = sc.build(comm)
+        n = comm.allreduce_sum_int(sim.particles.n_local)
+        what = f"plain scene, {n} spheres, {steps if steps is not None else run['steps']} steps, dt = {sim.dt:.3e} s"
+    check_output(comm, out)
+    if comm.rank == 0:
+        print(f"ok {path}: {what}, output folder {out} usable, on {comm.size} rank(s) (checked, not run)", flush=True)
+    return 0
+
+
 class _Parser(argparse.ArgumentParser):
     def error(self, message):
         """Usage errors on rank 0 only (every rank parses the same command line), exit 2."""
@@ -76,6 +115,9 @@ def main(argv=None):
                         "scene stops with a checkpoint at step N (run again without it to continue)")
     r.add_argument("--fresh", action="store_true",
                    help="ignore and remove the checkpoints in OUT/checkpoints and start from step 0")
+    r.add_argument("--check", action="store_true",
+                   help="check the scene file, the run's length and OUT as a run would at its start, without running "
+                        "or writing anything; prints one line 'ok ...' (exit 0) or the error (exit 2)")
     sub.add_parser("campaign", help="campaigns of runs: expand, run, slurm, status (docs/campaigns.md)", add_help=False)
     argv = sys.argv[1:] if argv is None else list(argv)
     if argv[:1] == ["campaign"]:  # its own parser (pdem.campaign.cli)
@@ -99,10 +141,12 @@ def main(argv=None):
 
         def run():
             configure_threads(comm)
+            if args.check:
+                return check_file(args.scene, out, steps=args.steps, comm=comm)
             return run_file(args.scene, out, steps=args.steps, fresh=args.fresh, comm=comm)
 
         status = run_guarded(comm, run)
-        if status == 0 and comm.rank == 0:
+        if status == 0 and comm.rank == 0 and not args.check:
             post_process(out)
         return status
     return 0

@@ -34,6 +34,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..build.validate import number, vector3
+from .clump_setup import MAX_MEMBERS
 
 THESIS_SHAPES = {"sphere": (0.024, 0.024, 0.024), "ellipsoid": (0.024, 0.030, 0.019),
                  "cylinder": (0.018, 0.018, 0.040), "cake": (0.010, 0.037, 0.037)}  # thesis table 4.11 [m]
@@ -72,6 +73,11 @@ def shape_members(shape, member_radius, radii, spacing=None):
     if not np.all(big > r):
         raise InputError(f"clumps.radii = {big.tolist()}: every semi-axis must exceed member_radius = {r:g} m")
     semi = big - r
+    # before the grid is made (it could exhaust the memory): the members of the largest of the
+    # shapes (a cylinder, 2π R_x R_y R_z) grown by one spacing, one per spacing³
+    estimate = 2.0 * np.pi * float(np.prod(semi + h)) / h**3
+    if estimate > 4 * MAX_MEMBERS or (2 * np.ceil(semi.max() / h) + 3) ** 3 > 1e8:
+        _too_many(shape, big, r, h, f"about {estimate:.3g}")
     best = None
     for offset in (0.0, 0.5):  # grid through the centre, or centre in the middle of a cell
         k = np.arange(-int(np.ceil(semi.max() / h)) - 1, int(np.ceil(semi.max() / h)) + 2)
@@ -80,10 +86,18 @@ def shape_members(shape, member_radius, radii, spacing=None):
         p = p[_inside(shape, p, semi)]
         if best is None or len(p) > len(best):
             best = p
+    if len(best) > MAX_MEMBERS:
+        _too_many(shape, big, r, h, len(best))
     if len(best) < 2:
         raise InputError(f"clumps.radii = {big.tolist()}: room for {len(best)} member(s) of radius {r:g} m; "
                          "a clump needs at least 2 (use a smaller member_radius)")
     return best, np.full(len(best), r)
+
+
+def _too_many(shape, radii, r, h, count):
+    raise InputError(f"clumps.member_radius = {r:g}: shape {shape!r} of semi-axes {radii.tolist()} m holds {count} "
+                     f"members {h:g} m apart; at most {MAX_MEMBERS} are allowed (member_radius, member_spacing or "
+                     "radii in the wrong unit?)")
 
 
 def nottingham_grain(member_radius=NOTTINGHAM_MEMBER_RADIUS, spacing=None):

@@ -1,8 +1,10 @@
 """Declaring clumps: member spheres, rigid-clump rows and bonds, checked, as `pdem.build.scene.Scene`
 builds them (`Scene.add_clumps`, `Scene.add_clump`, `Scene.add_breakable_clump`).
 
-`member_sets` checks the member lists (at least 2 spheres, radii > 0, one connected body of
-overlapping or touching spheres, `pdem.bodies.bonds.touching_pairs`); `rigid_rows` computes each rigid
+`member_sets` checks the member lists (at least 2 and at most `MAX_MEMBERS` spheres, one
+radius > 0 or one per member, no member wholly inside another, one connected body of
+overlapping or touching spheres, `pdem.bodies.bonds.touching_pairs`); `check_bond_overlaps`
+the members of a breakable clump against simulation.max_overlap_ratio; `rigid_rows` computes each rigid
 clump's mass properties (`pdem.bodies.clump_properties`) and the members' initial velocities
 (v_i = v + ω × (x_i − x_c), ω_i = ω); `owner_positions` gives the position that decides which
 rank owns a body (a member goes with its clump's centre, `pdem.parallel.slab_domain`).
@@ -21,7 +23,9 @@ from .clump_properties import (
 )
 from .clumps import CLUMP_FLOATS, CLUMP_INTS
 from ..errors import InputError
-from ..build.validate import number, vector3, vectors
+from ..build.validate import number, numbers, vector3, vectors
+
+MAX_MEMBERS = 3000  # the most member spheres of one clump (the Nottingham grain has 135)
 
 
 def member_sets(label, members):
@@ -39,17 +43,53 @@ def member_sets(label, members):
         n = len(pos)
         if n < 2:
             raise InputError(f"{where}.member_pos: a clump needs at least 2 member spheres, got {n}")
-        if np.ndim(radius) == 0:
-            r = np.full(n, number(f"{where}.member_radius", radius, 0.0, lo_open=True, allow="a number > 0 [m]"))
-        else:
-            try:
-                r = np.asarray(radius, np.float64)
-            except (TypeError, ValueError):
-                r = np.full(n, np.nan)
-        if r.shape != (n,) or not np.all(np.isfinite(r) & (r > 0)):
-            raise InputError(f"{where}.member_radius: must be one number > 0 [m] or {n} of them, got {radius!r:.60}")
+        check_member_count(f"{where}.member_pos", n)
+        r = numbers(f"{where}.member_radius", radius, n, 0.0, lo_open=True, allow="a number > 0 [m]")
+        check_not_inside(f"{where}.member_pos", pos, r)
         out.append((pos, r, touching_pairs(f"{where}.member_pos", pos, r)))
     return out
+
+
+def check_member_count(label, n):
+    """InputError unless a clump of ``n`` members is plausible: at most `MAX_MEMBERS`."""
+    if n > MAX_MEMBERS:
+        raise InputError(f"{label}: a clump of {n} member spheres; at most {MAX_MEMBERS} are allowed (a grain of "
+                         "thousands of members is a member radius or spacing in the wrong unit?)")
+
+
+def check_not_inside(label, pos, r):
+    """InputError if a member lies wholly inside another (same centre, or |x_i − x_j| + r_i <= r_j):
+    it adds nothing to the shape and only double-counts mass (a repeated row?)."""
+    d = pos[None, :, :] - pos[:, None, :]
+    dist = np.sqrt(np.einsum("ijk,ijk->ij", d, d))
+    inside = dist + r[:, None] <= r[None, :]
+    np.fill_diagonal(inside, False)
+    if np.any(inside):
+        i, j = (int(x[0]) for x in np.nonzero(inside))
+        raise InputError(f"{label}: member {i} at {pos[i].tolist()} (r {r[i]:g} m) lies wholly inside member {j} at "
+                         f"{pos[j].tolist()} (r {r[j]:g} m); a member must stick out of the others (a repeated row?)")
+
+
+def check_bond_overlaps(label, sets, max_overlap_ratio):
+    """InputError if two members of a breakable clump overlap by more than ``max_overlap_ratio``
+    of the smaller radius: they are free spheres, so the run's guard would stop at step 1 with an
+    overlap past the limit, wrongly blaming the time step. The one-line error names the real
+    cause: the members' spacing against simulation.max_overlap_ratio."""
+    for k, (pos, r, (i, j)) in enumerate(sets):
+        if not len(i):
+            continue
+        dist = np.linalg.norm(pos[j] - pos[i], axis=1)
+        small = np.minimum(r[i], r[j])
+        ratio = (r[i] + r[j] - dist) / small
+        q = int(np.argmax(ratio))
+        if ratio[q] > max_overlap_ratio:
+            where = f"{label}[{k}]" if len(sets) > 1 else label
+            spacing = r[i][q] + r[j][q] - max_overlap_ratio * small[q]
+            raise InputError(f"{where}: breakable members {int(i[q])} and {int(j[q])} are {dist[q]:.4g} m apart, "
+                             f"overlapping by {ratio[q]:.3g} of the smaller radius, more than simulation."
+                             f"max_overlap_ratio = {max_overlap_ratio:g} (bonded members are free spheres; the run "
+                             f"would stop at step 1): space them at least {spacing:.4g} m apart (member_spacing) "
+                             "or raise max_overlap_ratio")
 
 
 def mass_settings(label, mass_model, discretization, samples):

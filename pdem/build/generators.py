@@ -3,11 +3,15 @@
 `loose_cloud` places spheres on a jittered cubic lattice of spacing a = 2·r_max·(1 + gap) inside a
 box, in a random (seeded) order of sites. Each sphere stays inside its lattice cell (side a, wholly
 inside the box), so nothing overlaps another sphere or a side of the box at the start, and the
-result is the same on every rank and platform (numpy's PCG64 generator).
+result is the same on every rank and platform (numpy's PCG64 generator). A lattice of more than
+`MAX_SITES` sites (tiny spheres in a large box: a radius in the wrong unit) is refused before
+its arrays are allocated.
 """
 import numpy as np
 
 from ..errors import InputError
+
+MAX_SITES = 2e7  # the most lattice sites of a cloud (its index arrays: about 1.5 GB at the most)
 
 
 def sphere_radii(n, r_mean, spread, seed):
@@ -39,6 +43,10 @@ def loose_cloud(lo, hi, n, r_mean, spread=0.0, seed=0, gap=0.05):
             f"deposition: {n} spheres of radius up to {r_max:.4g} m do not fit in the box {lo.tolist()}..{hi.tolist()} "
             f"(room for {max(int(np.prod(np.maximum(counts, 0))), 0)}); enlarge the box height or use fewer spheres"
         )
+    if np.prod(counts.astype(float)) > MAX_SITES:  # the arrays of the lattice would not fit in memory
+        raise InputError(f"deposition: {n} spheres of radius {r_mean:.4g} m in the box {lo.tolist()}..{hi.tolist()} "
+                         f"need a lattice of {np.prod(counts.astype(float)):.3g} sites, more than {MAX_SITES:.0e} "
+                         "(a radius given in the wrong unit?)")
     rng = np.random.default_rng(seed + 1)
     ix, iy, iz = np.meshgrid(*(np.arange(c) for c in counts), indexing="ij")
     sites = np.stack([ix.ravel(), iy.ravel(), iz.ravel()], axis=1)

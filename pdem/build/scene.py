@@ -22,7 +22,8 @@ import numpy as np
 
 from ..bodies.bonds import TOUCH, bonded_rows, check_bond_strengths
 from ..bodies.boxes import Boxes
-from ..bodies.clump_setup import check_tables, mass_settings, member_sets, owner_positions, per_clump, rigid_rows
+from ..bodies.clump_setup import (check_bond_overlaps, check_tables, mass_settings, member_sets, owner_positions,
+                                  per_clump, rigid_rows)
 from ..bodies.clumps import Clumps, extent_of
 from ..contact import get_law
 from ..parallel.serial_domain import SerialDomain
@@ -33,7 +34,7 @@ from .materials import MaterialTable
 from ..settings import AUTO, simulation_settings
 from ..simulation import Simulation
 from ..bodies.state import DOF_ALL, FIELDS, Particles, with_defaults
-from .validate import boolean, number, vectors
+from .validate import boolean, number, numbers, vectors
 from ..boundaries.walls import Walls
 
 
@@ -239,6 +240,7 @@ class Scene:
             if angmom is not None or np.any(w != 0.0):
                 raise InputError(f"{label}.angvel: a breakable clump's members are free spheres; give them vel only")
             boolean(f"{label}.stress_free", stress_free)
+            check_bond_overlaps(label, sets, self.settings.max_overlap_ratio)
             mvel, mw = np.repeat(v, counts, axis=0), np.zeros((int(counts.sum()), 3))
         else:
             mass_settings(label, mass_model, discretization, samples)
@@ -515,14 +517,11 @@ def _broadcast(label, value, n):
 
 
 def _per_body(label, value, n):
-    """float64 [n] from one number or n numbers."""
-    try:
-        if isinstance(value, (str, bool)):
-            raise ValueError
-        a = np.asarray(value, dtype=np.float64)
-        return np.broadcast_to(a, (n,)).copy()
-    except (TypeError, ValueError):
-        raise InputError(f"{label} = {_short(value)}: must be one number or {n} numbers") from None
+    """float64 [n] from one number or n numbers (each checked as `validate.number` checks one)."""
+    a = numbers(label, value)
+    if len(a) not in (1, n):
+        raise InputError(f"{label} = {_short(value)}: must be one number or {n} numbers, got {len(a)}")
+    return np.broadcast_to(a, (n,)).copy()
 
 
 def _rows3(value, n):

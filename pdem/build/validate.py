@@ -1,6 +1,8 @@
 """Checks of input values, one helper per type, each raising `InputError` with one line that
-names the field, the value and what is allowed. Strict: a boolean is not a number (TOML ``true``
-must not become 1), a string is not a boolean, numbers are finite.
+names the field, the value and what is allowed. Strict, and the same for every key: a boolean is
+not a number (TOML ``true`` must not become 1), a string is not a number (``"1.5"`` is text, also
+as an element of a list: `vectors` and `numbers` refuse what `number` refuses), a string is not a
+boolean, numbers are finite.
 """
 from math import isfinite
 
@@ -49,11 +51,12 @@ def boolean(label, value):
 def vectors(label, value, n=None):
     """float64 [n, 3] from a list of (x, y, z) triples (or one triple when n is 1 or None)."""
     try:
-        if isinstance(value, (str, bytes)) or _has_bool(value):
+        if not _all_numbers(value):
             raise ValueError
         a = np.asarray(value, dtype=np.float64)
     except (TypeError, ValueError):
-        raise InputError(f"{label} = {_short(value)}: must be a list of (x, y, z) numbers") from None
+        raise InputError(f"{label} = {_short(value)}: must be a list of (x, y, z) numbers (not text, not "
+                         "true/false)") from None
     if a.ndim == 1 and a.shape[0] == 3 and (n is None or n == 1):
         a = a[None]
     if a.ndim != 2 or a.shape[1] != 3 or (n is not None and a.shape[0] != n):
@@ -69,12 +72,38 @@ def vector3(label, value):
     return vectors(label, value, 1)[0]
 
 
-def _has_bool(value):
-    if isinstance(value, (bool, np.bool_)):
-        return True
+def numbers(label, value, n=None, lo=None, *, lo_open=False, allow=None):
+    """float64 [n] from one number (repeated n times) or a list of numbers (n of them if n is
+    given), each checked as `number` checks a scalar: a list element that is text, a boolean or
+    not finite is refused exactly as the scalar would be. ``allow`` as in `number`."""
+    if isinstance(value, np.ndarray) and value.ndim == 0:
+        value = value.item()
+    if isinstance(value, np.ndarray) and value.ndim == 1 and value.dtype.kind in "iuf":
+        a = value.astype(np.float64)  # already numbers (a caller's array): the count, then the values at once
+        if n is not None and len(a) != n:
+            raise InputError(f"{label}: must be one number or {n} of them, got {len(a)}")
+        ok = np.isfinite(a) if lo is None else np.isfinite(a) & ((a > lo) if lo_open else (a >= lo))
+        if not np.all(ok):
+            k = int(np.flatnonzero(~ok)[0])
+            number(f"{label}[{k}]", float(a[k]), lo, lo_open=lo_open, allow=allow)
+        return a
+    if isinstance(value, (list, tuple, np.ndarray)):
+        items = list(np.asarray(value, dtype=object).reshape(-1)) if isinstance(value, np.ndarray) else list(value)
+        if n is not None and len(items) != n:
+            raise InputError(f"{label}: must be one number or {n} of them, got {len(items)}")
+        out = [number(f"{label}[{k}]", x, lo, lo_open=lo_open, allow=allow) for k, x in enumerate(items)]
+        return np.array(out, dtype=np.float64)
+    x = number(label, value, lo, lo_open=lo_open, allow=allow)
+    return np.full(1 if n is None else n, x)
+
+
+def _all_numbers(value):
+    """True if ``value`` is a number or a (nested) list/array of numbers only (no text, no booleans)."""
+    if isinstance(value, np.ndarray):
+        return value.dtype.kind in "iuf" or (value.dtype == object and all(_all_numbers(v) for v in value.ravel()))
     if isinstance(value, (list, tuple)):
-        return any(_has_bool(v) for v in value)
-    return isinstance(value, np.ndarray) and value.dtype == bool
+        return all(_all_numbers(v) for v in value)
+    return _is_number(value)
 
 
 def _short(value, limit=60):

@@ -1,4 +1,4 @@
-"""``pdem campaign COMMAND``: expand, run, slurm, status, member.
+"""``pdem campaign COMMAND``: check, expand, run, slurm, status, member.
 
 Bad input (campaign file, base scene, a member's key, a directory holding another campaign)
 prints one line ``pdem: error: ...`` and exits 2. ``run`` exits 0 when every member is done, 3
@@ -28,6 +28,8 @@ def _parser():
         p.add_argument("--out", default=None, help="campaign directory (default: [campaign] out, else runs/<name>)")
         return p
 
+    add("check", "check the campaign file, its base scene, every member's scene and the campaign directory, "
+                 "writing nothing: one line 'ok ...' (exit 0) or the error (exit 2)")
     add("expand", "write the member directories and the manifest (idempotent)")
     r = add("run", "expand, then run the members here, several at once within the cores")
     r.add_argument("--cores", type=int, default=None, help="cores to use (default [local] cores, else all)")
@@ -85,6 +87,14 @@ def _dispatch(args):
                 man = manifest(camp)
         rows = status_rows(out, man)
         print(json.dumps(rows, indent=1) if args.json else format_status(out, man, rows), flush=True)
+        return 0
+    if args.command == "check":
+        from .layout import plan_campaign
+
+        camp = load_campaign(args.file, out=args.out)
+        plan_campaign(camp)
+        print(f"ok {args.file}: campaign {camp.name}, {len(camp.members)} members checked, directory {camp.out} "
+              "usable (nothing written)", flush=True)
         return 0
     camp, man = _campaign(args)
     out = Path(camp.out)

@@ -65,6 +65,33 @@ def read_manifest(out):
 def write_campaign(camp, log=print):
     """Expand ``camp`` into its directory (idempotent); returns the manifest."""
     out = Path(camp.out)
+    old, plan = plan_campaign(camp)
+    out.mkdir(parents=True, exist_ok=True)
+    new = 0
+    for d, texts in plan:
+        if not d.exists():
+            new += 1
+        d.mkdir(exist_ok=True)
+        for fname, text in texts.items():
+            write_text_if_changed(d / fname, text)
+    man = manifest(camp)
+    if old is not None:
+        dropped = [e["name"] for e in old.get("members", []) if e["name"] not in {m.name for m in camp.members}]
+        if dropped:
+            log(f"{out}: {len(dropped)} member(s) no longer in {camp.path.name}, left alone and out of the manifest: "
+                + ", ".join(dropped))
+    write_text_if_changed(out / MANIFEST, json_text(man))
+    if new:
+        log(f"{out}: {new} new member(s) of campaign {camp.name} ({len(camp.members)} in all)")
+    return man
+
+
+def plan_campaign(camp):
+    """(the directory's old manifest or None, [(member directory, {file name: text})]) of
+    ``camp``: every check `write_campaign` makes before writing, writing nothing (``pdem campaign
+    check``). InputError (one line) for a directory that is not a campaign directory or holds
+    another campaign, a member directory of another campaign, or a member that would change."""
+    out = Path(camp.out)
     if out.exists() and not out.is_dir():
         raise InputError(f"{out}: exists and is not a directory")
     old = None
@@ -96,21 +123,4 @@ def write_campaign(camp, log=print):
                                  "overwritten: give the campaign another out directory, or remove that member's "
                                  "directory")
         plan.append((d, texts))
-    out.mkdir(parents=True, exist_ok=True)
-    new = 0
-    for d, texts in plan:
-        if not d.exists():
-            new += 1
-        d.mkdir(exist_ok=True)
-        for fname, text in texts.items():
-            write_text_if_changed(d / fname, text)
-    man = manifest(camp)
-    if old is not None:
-        dropped = [e["name"] for e in old.get("members", []) if e["name"] not in {m.name for m in camp.members}]
-        if dropped:
-            log(f"{out}: {len(dropped)} member(s) no longer in {camp.path.name}, left alone and out of the manifest: "
-                + ", ".join(dropped))
-    write_text_if_changed(out / MANIFEST, json_text(man))
-    if new:
-        log(f"{out}: {new} new member(s) of campaign {camp.name} ({len(camp.members)} in all)")
-    return man
+    return old, plan

@@ -206,6 +206,9 @@ def load_campaign(path, out=None):
     name = head.get("name", path.stem)
     if not isinstance(name, str) or not _NAME.match(name):
         raise _err(path, f"campaign.name = {name!r}: must be letters, digits, and _ . + = - (no spaces or /)")
+    for key in ("base", "out"):
+        if key in head and not (isinstance(head[key], str) and head[key].strip()):
+            raise _err(path, f"campaign.{key} = {head[key]!r}: must be a path (a non-empty string)")
     base = (path.parent / head["base"]).resolve() if not Path(head["base"]).is_absolute() else Path(head["base"])
     try:
         base_doc = load_toml(base, "base scene file")
@@ -250,6 +253,8 @@ def load_campaign(path, out=None):
                 raise _err(path, f"grid[{g}].{key} = {values!r}: must be a non-empty list of values")
             if key in varied:
                 raise _err(path, f"grid[{g}].{key}: varied twice")
+            if not zipped:
+                _no_repeats(path, f"grid[{g}].{key}", values, "value")
             varied.append(key)
         if zipped:
             lengths = {k: len(v) for k, v in keys.items()}
@@ -257,6 +262,7 @@ def load_campaign(path, out=None):
                 raise _err(path, f"grid[{g}]: zip = true needs lists of equal length, got "
                                  + ", ".join(f"{k}: {n}" for k, n in lengths.items()))
             n = next(iter(lengths.values()))
+            _no_repeats(path, f"grid[{g}] (zip = true)", [[v[i] for v in keys.values()] for i in range(n)], "row")
             factors.append(("zip", [(None, {k: v[i] for k, v in keys.items()}, {}) for i in range(n)]))
         else:
             for key, values in keys.items():
@@ -326,6 +332,18 @@ def load_campaign(path, out=None):
     return camp
 
 
+def _no_repeats(path, where, values, what):
+    """InputError if a value of ``values`` (a grid's list, or a zipped grid's rows) is repeated:
+    two members would run one scene (and write one folder)."""
+    seen = {}
+    for k, v in enumerate(values):
+        text = repr(v)
+        if text in seen:
+            raise _err(path, f"{where}: {what} {k} ({v!r}) repeats {what} {seen[text]}; two members would run the same "
+                             "scene: remove one")
+        seen[text] = k
+
+
 def _list_of_tables(path, raw, key):
     v = raw.get(key, [])
     if isinstance(v, dict):
@@ -360,10 +378,14 @@ def expand(camp, base_doc):
         if "case" in extra:
             params = {"case": extra["case"], **params}
         name = "_".join(parts)
-        if name in seen:
-            raise _err(camp.path, f"members {seen[name]} and {params} get the same name {name!r}; "
-                                  "give the values that differ more digits")
-        seen[name] = params
+        folded = name.casefold()  # one folder on a case-insensitive file system (macOS, Windows)
+        if folded in seen:
+            other, params0 = seen[folded]
+            same = f"the same name {name!r}" if other == name else f"names {other!r} and {name!r} (one folder where " \
+                "case does not count)"
+            raise _err(camp.path, f"members {params0} and {params} get {same}; they would write one folder: give "
+                                  "the values that differ more digits or other case names")
+        seen[folded] = (name, params)
         doc, created = _deepcopy(base_doc), {}
         for key, v in overrides.items():
             try:

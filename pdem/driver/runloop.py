@@ -204,11 +204,40 @@ def prepare_output(comm, out):
     return out
 
 
-def _unusable_output(out):
+def check_output(comm, out):
+    """Like `prepare_output`, but touching nothing (``pdem run --check``): every rank raises the
+    same one-line InputError if rank 0 finds that ``out`` or its checkpoints/ folder could not be
+    created or written (an existing one not a writable directory; a missing one under no
+    writable directory)."""
+    out = Path(out)
+    problem = _unusable_output(out, _would_be_unwritable) if comm.rank == 0 else None
+    problem = comm.bcast(problem)
+    if problem:
+        raise InputError(f"--out {out}: {problem}")
+    return out
+
+
+def _would_be_unwritable(d):
+    """Why the directory ``d`` could not be created or written, or None (nothing is created)."""
+    if d.exists():
+        if not d.is_dir():
+            return "exists and is not a directory"
+        return None if os.access(d, os.W_OK | os.X_OK) else "cannot be written (permission denied)"
+    parent = d.parent
+    while not parent.exists() and parent != parent.parent:
+        parent = parent.parent
+    if not parent.is_dir():
+        return f"cannot be created ({parent} is not a directory)"
+    if not os.access(parent, os.W_OK | os.X_OK):
+        return f"cannot be created ({parent} cannot be written)"
+    return None
+
+
+def _unusable_output(out, unwritable=None):
     """Why ``out`` or ``out/checkpoints`` cannot hold a run's output, or None."""
     ckdir = out / "checkpoints"
     for d, what in ((out, ""), (ckdir, f"its checkpoints folder {ckdir} ")):
-        problem = _unwritable_directory(d)
+        problem = (unwritable or _unwritable_directory)(d)
         if problem:
             return what + problem
     return None

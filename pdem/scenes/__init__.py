@@ -19,10 +19,19 @@ SCENES = {"box_test": "pdem.scenes.box_test", "blast": "pdem.scenes.blast", "tra
 
 def find(doc):
     """(name, module) of the scene a parsed scene file asks for, or (None, None) for a plain scene."""
+    from ..errors import InputError
+
+    if "campaign" in doc and not any(k in doc for k in SCENES):
+        raise InputError("scene file.campaign: this is a campaign file, not a scene file: use `pdem campaign check`, "
+                         "`expand` or `run` with it (docs/campaigns.md)")
+    for key in ("simulation", "run", "materials", *SCENES):  # the tables every scene reads as tables
+        if key in doc and not isinstance(doc[key], dict):
+            raise InputError(f"{key}: must be a table ([{key}]), got {type(doc[key]).__name__} {doc[key]!r:.40}")
+    for name, m in doc.get("materials", {}).items():
+        if not isinstance(m, dict):
+            raise InputError(f"materials.{name}: must be a table ([materials.{name}]), got {type(m).__name__}")
     named = [k for k in SCENES if k in doc]
     if len(named) > 1:
-        from ..errors import InputError
-
         raise InputError(f"scene file: tables {', '.join(named)} select different scenes; keep one")
     if not named:
         return None, None

@@ -77,6 +77,7 @@ from ..io.checkpoint import (
 )
 from ..boundaries.loads import Impulse
 from ..build.validate import number
+from .common.bounds import plausible
 
 # [blast] keys and defaults (SPEC.md 2.5; stiffness and damping are in [materials])
 DEFAULTS = {
@@ -111,6 +112,7 @@ PREPARED_KEYS = ("box", "grain_material", "wall_material", "side_material", "dia
 # ---------------------------------------------------------------------------- settings
 def blast_settings(doc):
     """The [blast] table with defaults, checked (one-line InputError naming the key)."""
+    check_keys("scene file", doc, {"simulation", "run", "materials", "blast"})
     given = doc["blast"]
     check_keys("blast", given, set(DEFAULTS))
     c = {**DEFAULTS, **given}
@@ -161,6 +163,7 @@ def blast_settings(doc):
     if "steps" in doc.get("run", {}):
         raise InputError("run.steps: not used by a blast run (its stages end on settle criteria and blast.duration); "
                          "remove it")
+    plausible("blast", c)
     return c
 
 

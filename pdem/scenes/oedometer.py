@@ -63,6 +63,7 @@ from ..format.schema import OEDOMETER_SERIES
 from ..build.generators import sphere_radii
 from ..boundaries.loads import Haversine
 from ..build.validate import boolean, number
+from .common.bounds import plausible
 from .common.preparation import PREPARATION_DEFAULTS, PREPARATION_STAGES, PreparedRun, check_preparation, \
     pour_stage, refill_stage, settle_stage, vibrate_stage
 
@@ -110,6 +111,7 @@ def settings(doc):
                          "load_time in [oedometer]); remove it")
     c["grain"] = grain_spec(doc, c)
     check_bond_boost(c)
+    plausible("oedometer", c)
     return c
 
 

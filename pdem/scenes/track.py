@@ -79,6 +79,7 @@ from ..io.checkpoint import CheckpointError, read_checkpoint
 from ..boundaries.loads import ETA_ZERO, AxleTrain, Haversine, SleeperLoad
 from ..boundaries.rail_beam import RailBeam, RailSection, SleeperRails
 from ..build.validate import boolean, number
+from .common.bounds import plausible
 from .common.preparation import PREPARATION_DEFAULTS, PreparedRun, add_cloud, check_preparation, \
     pour_stage, refill_stage, remove_where, settle_stage, vibrate_stage
 from .track_record import PassageTracker, TrackWriter, sleeper_sample, write_force_record, write_sleepers
@@ -153,6 +154,7 @@ def track_settings(doc):
         c[k] = number(f"track.{k}", c[k], 0.0, lo_open=True)
     for k in ("rail_mass", "shoulder_width"):
         c[k] = number(f"track.{k}", c[k], 0.0)
+    plausible("track", {k: v for k, v in c.items() if k != "sleeper_mass"})  # before the relations between keys
     w, length, h = c["sleeper_size"]
     if w >= c["spacing"]:
         raise InputError(f"track.sleeper_size = {c['sleeper_size']!r}: the sleeper width {w} m must be less than the "
@@ -165,10 +167,13 @@ def track_settings(doc):
     r_max = c["radius"] * (1 + c["radius_spread"])
     if c["bed_depth"] < 2 * r_max:
         raise InputError(f"track.bed_depth = {c['bed_depth']!r}: must hold at least one grain (>= {2 * r_max:g} m)")
-    density = doc["materials"][c["sleeper_material"]]["density"]
+    density = number(f"materials.{c['sleeper_material']}.density",
+                     doc["materials"][c["sleeper_material"]].get("density"), 0.0, lo_open=True,
+                     allow="a finite number > 0 [kg/m³] (the sleepers' mass)")
     share = 0.5 if c["half"] else 1.0
     if "sleeper_mass" in given:
         c["sleeper_mass"] = number("track.sleeper_mass", c["sleeper_mass"], 0.0, lo_open=True, allow="a mass > 0 [kg]")
+        plausible("track", {"sleeper_mass": c["sleeper_mass"]})
     else:
         c["sleeper_mass"] = float(density) * w * length * h
     c["body_mass"] = share * c["sleeper_mass"] + (1 if c["half"] else 2) * c["rail_mass"] * c["spacing"]
@@ -206,6 +211,7 @@ def traffic_settings(doc, c):
     if t["program"] == "haversine":
         t["passages"] = number("traffic.cycles", t["cycles"], 1, integer=True)
         Haversine(t["f_min"], t["f_max"], t["frequency"], t["cycles"], label="traffic")  # checks the values
+        plausible("traffic", {k: t[k] for k in HAVERSINE_KEYS})
         return t
     for k in ("rail_bending_stiffness", "rail_seat_stiffness"):
         t[k] = number(f"traffic.{k}", t[k], 0.0, lo_open=True)
@@ -221,7 +227,9 @@ def traffic_settings(doc, c):
         raise InputError(f"traffic.x_from = {train.x_from!r}, x_to = {train.x_to!r}: the axles never come within "
                          f"reach ({reach:.3g} m = 3π/4 L) of a sleeper (x = {x[0]:g} .. {x[-1]:g} m): no axle load "
                          "reaches any sleeper")
-    return rail_settings(t, given, c, train)
+    t = rail_settings(t, given, c, train)
+    plausible("traffic", {k: t[k] for k in AXLE_KEYS if k in t})
+    return t
 
 
 def rail_settings(t, given, c, train):

@@ -46,6 +46,7 @@ from math import cos, pi, sin
 
 import numpy as np
 
+from .bounds import PREPARATION_BOUNDS, plausible
 from ...driver import observables
 from ...driver.plain import write_snapshot
 from ...driver.results import series_writer
@@ -86,6 +87,7 @@ def check_preparation(name, c):
                          "'all' (every contact's friction changed) or 'new' (only contacts made afterwards, as Yade)")
     c["vibration_friction_factor"] = number(f"{name}.vibration_friction_factor", c["vibration_friction_factor"], 0.0,
                                             1.0, lo_open=True, allow="in (0, 1]")
+    plausible(name, c, PREPARATION_BOUNDS)
     return c
 
 
