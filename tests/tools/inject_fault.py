@@ -37,7 +37,8 @@ from pdem.io.timeseries import ResultsFileError
 from pdem.parallel.comm import get_comm
 from pdem.simulation import Simulation
 
-# site -> (module, attribute: "function" or "Class.method", what the site is)
+# site -> (module, attributes: "function" or "Class.method" (several: "|"; "name:arg" hooks the
+# callable passed as keyword ``arg``), what the site is)
 SITES = {
     "step": ("pdem.simulation", "Simulation.advance", "one whole time step (the default site)"),
     "digest": ("pdem.driver.preflight", "agree_on_input",
@@ -55,9 +56,9 @@ SITES = {
                     "the rebuild of the ghost layer (neighbour exchanges)"),
     "ghost": ("pdem.parallel.slab_domain", "SlabDomain.update_ghosts",
               "the ghost update of every step (sized neighbour exchange)"),
-    "exact-sum": ("pdem.parallel.comm", "MpiComm.exact_sum", "an exact sum over ranks (energies; allreduce of limbs)"),
-    "exact-sum-groups": ("pdem.parallel.comm", "MpiComm.exact_sum_groups",
-                         "an exact sum per group over ranks (wall, box and clump forces)"),
+    "exact-sum": ("pdem.parallel.comm",
+                  "MpiComm.exact_sum|MpiComm.exact_sum_rows|MpiComm.exact_sum_groups|MpiComm.exact_sum_accumulators",
+                  "an exact sum over ranks (energies, wall, box and clump forces; allreduce of limbs)"),
     "timestep": ("pdem.timestep", "stable_dt", "the automatic time step (allreduce min)"),
     "stability": ("pdem.checks.diagnostics", "check_stability",
                   "the periodic stability check (any_flag, exact sums, the guard's domain check)"),
@@ -80,9 +81,9 @@ FAULTS = {
     "RuntimeError": lambda where: RuntimeError(f"injected fault at {where}"),
     "MemoryError": lambda where: MemoryError(f"injected at {where}: cannot allocate 8 GiB"),
     "OSError": lambda where: OSError(errno.EIO, f"injected I/O error at {where}", "somewhere.h5"),
-    "ENOSPC": lambda where: OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), f"results.h5 ({where})"),
+    "ENOSPC": lambda where: OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), f"results.h5 at {where}"),
     "Instability": lambda where: InstabilityError(f"step {Clock.step()}: injected instability at {where}"),
-    "InputError": lambda where: InputError(f"injected.key = 1: must be injected (at {where})"),
+    "InputError": lambda where: InputError(f"injected.key = 1: must be injected, at {where}"),
     "CheckpointError": lambda where: CheckpointError("ckpt_injected.h5", f"injected damage at {where}"),
     "CheckpointWriteError": lambda where: CheckpointWriteError("ckpt_injected.h5",
                                                                f"injected write failure at {where}"),
@@ -140,9 +141,14 @@ def _replace_everywhere(old, new):
 
 
 def hook(site, maybe):
-    """Call ``maybe()`` on entry to ``site`` (its function or method replaced by a wrapper)."""
-    module, target, _ = SITES[site]
+    """Call ``maybe()`` on entry to ``site`` (its functions or methods replaced by wrappers)."""
+    module, targets, _ = SITES[site]
     mod = importlib.import_module(module)
+    for target in targets.split("|"):
+        _hook_one(mod, target, maybe)
+
+
+def _hook_one(mod, target, maybe):
     target, _, arg = target.partition(":")
     owner_name, _, name = target.rpartition(".")
     owner = getattr(mod, owner_name) if owner_name else mod
