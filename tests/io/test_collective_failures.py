@@ -1,24 +1,23 @@
-"""Failure agreement at every collective of pdem: when one rank fails at (on entry to) a
-collective — an exception, or its process killed with ``kill -9`` — every rank leaves and the job
-ends within seconds, with the status of the one mapping (`pdem.driver.failures.classify`,
-docs/reliability.md) and one line naming the rank and the site; never a hang.
+"""Failure agreement at every collective of pdem: when one rank fails at (on entry to) a collective —
+an exception, or its process killed with ``kill -9`` — every rank leaves and the job ends within
+seconds, with the status of the one mapping (`pdem.driver.failures.classify`, docs/reliability.md)
+and one line naming the rank and the site; never a hang.
 
 Every site of tests/tools/inject_fault.py (`SITES`: the start digest agreement, the output check,
-the resume choice, the rebuild test, rebalancing, migration, the ghost-layer rebuild and the
-ghost update, exact sums, the time step, the stability check, the stop-signal poll, checkpoint,
-results and snapshot writes, and the stage machine's build, decision and end) on 2 and 3 ranks,
-the failing rank the last one (the one whose partners wait in the collective); a few on 4 ranks,
-on rank 0 (the writer of checkpoints, results and snapshots) and on every rank (then the job
-ends cleanly, the line printed once); and SIGKILL of one rank on 2, 3 and 4 ranks (the launcher
-ends the job: Hydra's status is the signal number, 9, and its message names the process the tool
-announced for that rank). A subprocess still running after HUNG_AFTER seconds is a hung job
-(TimeoutExpired fails the test): a hang detector, not a timing. Small scenes, a few hundred steps;
-the failing rank waits PDEM_FAILURE_GRACE_S = 3 s for the others before it aborts the job.
+the resume choice, the rebuild test, rebalancing, migration, the ghost-layer rebuild and the ghost
+update, exact sums, the time step, the stability check, the stop-signal poll, checkpoint, results
+and snapshot writes, and the stage machine's build, decision and end) on 2 and 3 ranks, the failing
+rank the last one (the one whose partners wait in the collective); a few on 4 ranks, on rank 0 (the
+writer of checkpoints, results and snapshots) and on every rank (then the job ends cleanly, the line
+printed once); and SIGKILL of one rank on 2, 3 and 4 ranks (the launcher ends the job: Hydra's
+status is the signal number, 9, and it reports the kill). A subprocess still running after
+HUNG_AFTER seconds is a hung job (TimeoutExpired fails the test): a hang detector, not a timing.
+Small scenes, a few hundred steps; the failing rank waits PDEM_FAILURE_GRACE_S = 3 s for the others
+before it aborts the job.
 """
 import importlib.util
 import re
 import signal
-import time
 
 import pytest
 from pdem_cli import needs_mpiexec
@@ -87,12 +86,11 @@ def fault_step(site):
 
 
 def inject(tmp_path, n_ranks, rank, site, kind, scene_path=None):
-    """(status, stderr, seconds) of `pdem run` on n_ranks with ``kind`` at ``site`` on ``rank``."""
+    """(status, stderr, stdout) of `pdem run` on n_ranks with ``kind`` at ``site`` on ``rank``."""
     s = scene_path or scene(tmp_path, PLAIN)
-    t0 = time.monotonic()
-    rc, _, err = run(n_ranks, ["run", str(s), "--out", "out"], tmp_path,
-                     tool=[str(rank), str(fault_step(site)), f"{kind}@{site}"], env=GRACE, timeout=HUNG_AFTER)
-    return rc, err, time.monotonic() - t0
+    rc, out, err = run(n_ranks, ["run", str(s), "--out", "out"], tmp_path,
+                       tool=[str(rank), str(fault_step(site)), f"{kind}@{site}"], env=GRACE, timeout=HUNG_AFTER)
+    return rc, err, out
 
 
 def check_alone(rc, err, n_ranks, rank, site, status, words):
@@ -156,12 +154,12 @@ def test_every_rank_fails_at_a_collective(warm, tmp_path, n_ranks, site, kind, s
 ])
 def test_one_rank_killed(warm, tmp_path, n_ranks, rank, site):  # noqa: F811
     """``kill -9`` of one rank at a collective: nothing of pdem runs on it; the launcher (Hydra)
-    sees the process die, ends the others and exits with the signal number (9), naming the pid
-    (which the tool announced for the rank) — never a hang of the others in the collective."""
-    rc, err, _ = inject(tmp_path, n_ranks, rank, site, "SIGKILL")
+    sees the process die, ends the others and exits with the signal number (9) — never a hang of
+    the others in the collective. (The tool's line names the rank and the site.)"""
+    rc, err, out = inject(tmp_path, n_ranks, rank, site, "SIGKILL")
     assert rc == signal.SIGKILL, (rc, err[-3000:])
     said = re.search(rf"inject_fault: rank {rank} \(pid (\d+)\) killed at {site} \(step \d+\)", err)
     assert said, err[-3000:]
-    assert "BAD TERMINATION" in err and f"PID {said.group(1)} " in err, err[-3000:]
-    assert "Killed (signal 9)" in err
+    # Hydra's report, on its stdout (the pid it names is a process of the job, not always the killed one)
+    assert "BAD TERMINATION" in out and "Killed (signal 9)" in out, out[-3000:]
     assert not pdem_lines(err), err[-3000:]  # nothing of pdem's ran after the kill
