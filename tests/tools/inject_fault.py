@@ -110,7 +110,7 @@ def _rank():
 
 
 def fault(rank, step, kind, site):
-    """The action at ``site``: True once it has fired (it fires once)."""
+    """The action on entry to ``site`` (it fires once, on the first entry that qualifies)."""
     fired = []
 
     def maybe():
@@ -118,7 +118,7 @@ def fault(rank, step, kind, site):
             return
         fired.append(True)
         where = f"{site} (step {Clock.step()})"
-        if kind == "SIGKILL":  # the launcher names the process it lost by its pid: say whose it is
+        if kind == "SIGKILL":  # nothing of pdem's runs after it: the tool says which rank it killed
             sys.stdout.flush()
             sys.stderr.write(f"inject_fault: rank {_rank()} (pid {os.getpid()}) killed at {where}\n")
             sys.stderr.flush()
