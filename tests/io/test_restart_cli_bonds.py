@@ -8,7 +8,8 @@ does.
 Two stops: one sent from outside once the refill stage's checkpoint exists (it lands mid-stage,
 at the next stop poll), resumed on 3 ranks; and one sent by the run to itself (tests/tools/
 inject_fault.py, kind SIGTERM) 50 steps before the step at which the reference ends a stage (a
-multiple of 100: the stop poll and the stage's end test fall on the same step), resumed on 1 rank.
+multiple of 100: the stop poll and the stage's end test fall on the same step; the stage ends, the
+next poll stops the run), resumed on 1 rank.
 """
 import importlib.util
 import os
@@ -73,7 +74,12 @@ def test_sigterm_on_a_stage_end_step_on_2_resumed_on_1(ref):
            "--", "run", str(scene), "--out", str(out)]
     r = subprocess.run(cmd, capture_output=True, text=True, timeout=600, check=False,
                        env=dict(os.environ, OMP_NUM_THREADS="1", NUMBA_NUM_THREADS="1"))
-    assert r.returncode == 3 and f"step {step}: stop signal received" in r.stdout, r.stdout[-3000:] + r.stderr[-3000:]
+    text = r.stdout
+    assert r.returncode == 3 and "stop signal received" in text, text[-3000:] + r.stderr[-3000:]
+    # the stage ended on that step as in the reference (its end test before the stop poll), and the
+    # run stopped at the next poll, inside the next stage (it used to stop inside the ended stage)
+    assert f"step {step}: checkpoint" in text and "(end of stage" in text.split(f"step {step}: checkpoint")[1]
+    assert f"step {step + 100}: stop signal received" in text, text[-3000:]
     r = run_pdem(1, scene, out)
     assert "resuming from" in r.stdout
     assert_same_run(base / "ref", out)
