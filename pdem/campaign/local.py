@@ -6,7 +6,8 @@ resume from their checkpoints, pending ones start, failed ones are skipped unles
 ``retry_failed``. A member failing never stops the others. SIGTERM or SIGINT to the runner is
 forwarded to the running members as SIGTERM (pdem writes a checkpoint and exits 3), no new
 member starts, and the runner exits 3 once they have stopped: running the same command again
-resumes the campaign.
+resumes the campaign. A member killed by SIGKILL (exit 137) does not stop the others either, and
+the next run resumes it from its checkpoint; a finished member is never run again.
 
 Exit status: 0 every member done, 3 stopped on a signal, 1 otherwise (a member failed or is
 run by another process).
@@ -18,7 +19,7 @@ from pathlib import Path
 
 from ..errors import InputError
 from .member import MemberProcess
-from .record import EXIT_STOPPED, member_state
+from .record import EXIT_KILLED, EXIT_STOPPED, member_state
 
 
 def available_cores():
@@ -84,8 +85,9 @@ def run_local(out, man, cores=None, retry_failed=False, log=print, poll_s=0.2):
                     continue
                 running.remove(mp)
                 results.append((mp.name, rc))
-                what = {0: "done", EXIT_STOPPED: "stopped (checkpointed)"}.get(rc, "FAILED")
-                msg = "" if rc in (0, EXIT_STOPPED) else ": " + member_state(mp.dir)[2]
+                what = {0: "done", EXIT_STOPPED: "stopped (checkpointed)",
+                        EXIT_KILLED: "killed (SIGKILL; the next run resumes it from its checkpoint)"}.get(rc, "FAILED")
+                msg = "" if rc in (0, EXIT_STOPPED, EXIT_KILLED) else ": " + member_state(mp.dir)[2]
                 log(f"{mp.name}: {what}, exit {rc}, {mp.wall:.1f} s{msg}")
             if running or todo:
                 time.sleep(poll_s)

@@ -17,6 +17,10 @@ pdem acknowledges it in the log (`STOP_ACK`) or exits, so a stop that arrives wh
 starting is not lost: pdem then writes a checkpoint and exits with status 3. A member that a stop
 killed instead (an MPI rank still starting, or already past its step loop) is recorded as stopped
 too: pdem's checkpoints and result files are written so that running it again resumes cleanly.
+A member killed by SIGKILL without a stop (``kill -9``, the OOM killer; under mpiexec one of its
+ranks: Hydra then exits with status 9) is recorded with exit `EXIT_KILLED` (137), which
+`pdem.campaign.record.member_state` counts as stopped: the next run resumes it from its newest
+checkpoint.
 """
 import os
 import signal
@@ -26,7 +30,7 @@ import time
 from pathlib import Path
 
 from ..format.campaign import LOG, SCENE, read_run
-from .record import EXIT_STOPPED, end_attempt, start_attempt, take_lock
+from .record import EXIT_KILLED, EXIT_STOPPED, end_attempt, start_attempt, take_lock
 
 RESEND_S = 2.0
 STOP_ACK = "stop signal received"  # what pdem logs when it has seen the stop signal
@@ -118,6 +122,11 @@ class MemberProcess:
         if rc < 0:
             self.log.write(f"pdem campaign: the member was killed by signal {-rc}\n")
             rc = 128 - rc
+        elif rc == signal.SIGKILL and self._launched_by_mpiexec():
+            # mpiexec (Hydra) ends the job with a killed rank's signal number as its status (pdem
+            # never exits 9 itself)
+            self.log.write("pdem campaign: a rank of the member was killed by signal 9\n")
+            rc = EXIT_KILLED
         if self.stop_sent is not None and rc in KILLED_BY_STOP:
             self.log.write(
                 f"pdem campaign: exit status {rc} after a stop signal: recorded as stopped ({EXIT_STOPPED}); "
@@ -137,6 +146,9 @@ class MemberProcess:
         self.cpu = usage.ru_utime + usage.ru_stime
         self.proc.returncode = os.waitstatus_to_exitcode(status)
         return self.proc.returncode
+
+    def _launched_by_mpiexec(self):
+        return self.launcher == "mpiexec" or (self.launcher == "local" and self.ranks > 1)
 
     def _acknowledged(self):
         if not self.acked:

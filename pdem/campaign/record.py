@@ -8,14 +8,17 @@ over attempts (``wall_s``, ``core_s``, ``cpu_s``, the last ``exit``), which the 
 report reads as the member's cost. A member being run holds an exclusive `flock` on
 ``<member>/.lock`` (inherited by its processes), so any process can tell that it is running.
 
-States: done (last exit 0), running (locked), stopped (last exit 3: checkpointed on a signal,
-or an attempt with no exit recorded: the runner itself was killed; both resume), failed (any
-other exit; the message is the last ``pdem: error``/``pdem: unstable`` line of its log),
-pending (never started).
+States: done (last exit 0), running (locked), stopped (last exit 3: checkpointed on a signal;
+last exit `EXIT_KILLED`, 128 + SIGKILL: killed with ``kill -9`` or by the OOM killer, where no
+checkpoint could be written but the earlier ones and the results up to them are whole; or an
+attempt with no exit recorded and no process holding its lock: the runner itself was killed;
+all of them resume from the newest checkpoint), failed (any other exit; the message is the last
+``pdem: error``/``pdem: unstable`` line of its log), pending (never started).
 """
 import datetime as _dt
 import fcntl
 import os
+import signal
 import socket
 from pathlib import Path
 
@@ -25,6 +28,7 @@ from .layout import json_text, write_text_if_changed
 
 STATES = ("done", "running", "stopped", "failed", "pending")
 EXIT_STOPPED = EXIT_CHECKPOINTED_ON_SIGNAL
+EXIT_KILLED = 128 + signal.SIGKILL  # a member (or one of its ranks) killed by SIGKILL: it resumes
 
 
 def now():
@@ -124,4 +128,7 @@ def member_state(d):
         return "done", rec, ""
     if a["exit"] == EXIT_STOPPED:
         return "stopped", rec, "stopped on a signal (exit 3); runs again from its newest checkpoint"
+    if a["exit"] == EXIT_KILLED:
+        return "stopped", rec, ("killed by SIGKILL (exit 137: kill -9 or out of memory); runs again from its newest "
+                                "checkpoint")
     return "failed", rec, failure_message(d) or f"exit status {a['exit']}"

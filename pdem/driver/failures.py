@@ -10,7 +10,7 @@ any exception that reaches the top of a run, on any rank (`run_guarded`):
     2  bad input: scene file, command line, output directory, a checkpoint or results file
        that cannot be continued from (`InputError`, `CheckpointError`, `ResultsFileError`)
     5  the system failed the run: a write failed (disk full, file system gone), out of memory
-       (`MemoryError`, `OSError`, `CheckpointWriteError`)
+       (`MemoryError`, `OSError`, `CheckpointWriteError`, `SnapshotWriteError`)
   130  interrupted (KeyboardInterrupt: SIGINT, Ctrl-C)
 
 The numbers are the constants of `pdem.errors`; `classify` is the one mapping from exceptions
@@ -43,6 +43,7 @@ from ..errors import (
     InstabilityError,
 )
 from ..io.checkpoint import CheckpointError, CheckpointWriteError
+from ..io.snapshots import SnapshotWriteError
 from ..io.timeseries import ResultsFileError
 
 GRACE_S = 10.0
@@ -62,6 +63,8 @@ def classify(exc):
         return EXIT_INPUT_ERROR, f"error: {_one_line(exc)}", False
     if isinstance(exc, CheckpointWriteError):
         return EXIT_SYSTEM_ERROR, f"error: writing checkpoint {_one_line(exc)}", False
+    if isinstance(exc, SnapshotWriteError):
+        return EXIT_SYSTEM_ERROR, f"error: writing snapshots {_one_line(exc)}", False
     if isinstance(exc, CheckpointError):
         return EXIT_INPUT_ERROR, f"error: checkpoint {_one_line(exc)}", False
     if isinstance(exc, ResultsFileError):

@@ -165,14 +165,16 @@ class RunLoop:
                 if comm.rank == 0:
                     progress.update(k, last_step, line)
             sim.timers.add("output", t0)
+            # the stage's end test before the stop poll: a run stopped at step k resumes at k + 1, so
+            # the test of step k must have been made (as in a run that is not stopped)
+            if until is not None and k % until_every == 0 and until(sim):
+                return "until"
             if k % 100 == 0 and self.stop.stop_requested(comm):  # collective: the same step on every rank
                 self.log(f"step {k}: stop signal received; writing a checkpoint and stopping "
                          f"(exit status {EXIT_CHECKPOINTED_ON_SIGNAL})")
                 self.checkpoint(sim, "stop signal")
                 self.status = EXIT_CHECKPOINTED_ON_SIGNAL
                 return "signal"
-            if until is not None and k % until_every == 0 and until(sim):
-                return "until"
             why = []
             if run["checkpoint_every"] and k % run["checkpoint_every"] == 0:
                 why.append(f"every {run['checkpoint_every']} steps")

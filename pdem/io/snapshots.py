@@ -44,7 +44,7 @@ SCHEMA_VERSION = 1
 _GROUP_RE = re.compile(r"^step_(\d{12})$")
 _BASE = ("position", "radius", "velocity", "gid")
 
-__all__ = ["SnapshotError", "SnapshotWriter", "write_xdmf"]
+__all__ = ["SnapshotError", "SnapshotWriteError", "SnapshotWriter", "write_xdmf"]
 
 
 class SnapshotError(RuntimeError):
@@ -54,6 +54,11 @@ class SnapshotError(RuntimeError):
         self.path = Path(path)
         self.reason = " ".join(str(reason).split())
         super().__init__(f"{self.path.name}: {self.reason}")
+
+
+class SnapshotWriteError(SnapshotError):
+    """The system failed a snapshot write (disk full, file system gone, out of memory): raised on
+    every rank, exit status 5 like a failed checkpoint write (`pdem.driver.failures.classify`)."""
 
 
 def _group_name(step: int) -> str:
@@ -229,12 +234,15 @@ class SnapshotWriter:
         if self._rank0:
             try:
                 self._write_rank0(int(step), float(time), data, sorted(fields))
+            except (OSError, MemoryError) as exc:  # the system's failure, not the data's
+                outcome, error = ("system", one_line(exc) or type(exc).__name__), exc
             except Exception as exc:
                 outcome, error = ("error", one_line(exc)), exc
         if self.comm is not None:
             outcome = self.comm.bcast(outcome)
         if outcome[0] != "ok":
-            raise SnapshotError(h5, f"step {int(step)}: {outcome[1]}") from error
+            cls = SnapshotWriteError if outcome[0] == "system" else SnapshotError
+            raise cls(h5, f"step {int(step)}: {outcome[1]}") from error
 
     def _write_rank0(self, step: int, time: float, data: dict, extra: list) -> None:
         order = np.argsort(data["gid"], kind="stable")

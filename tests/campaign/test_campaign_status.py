@@ -70,3 +70,16 @@ def test_status_before_expansion_lists_pending(tmp_path, tiny, capsys):
     out = capsys.readouterr().out
     assert "2 members: 0 done, 0 running, 0 stopped, 0 failed, 2 pending" in out
     assert not (tmp_path / "runs").exists()  # status never writes
+
+
+def test_a_member_killed_by_sigkill_counts_as_stopped(tmp_path):
+    """Exit 137 (128 + SIGKILL: kill -9, the OOM killer) is no failure of pdem's: the member's
+    checkpoints are whole, so it counts as stopped and the next run resumes it; any other exit
+    (e.g. 139, a segfault) is a failure."""
+    d = tmp_path / "m"
+    d.mkdir()
+    attempt(d, 137, "step 300 ...\n")
+    state, _, msg = member_state(d)
+    assert state == "stopped" and "killed by SIGKILL" in msg and "runs again from its newest checkpoint" in msg
+    attempt(d, 139, "step 500 ...\n")
+    assert member_state(d)[0] == "failed"

@@ -15,6 +15,7 @@ from pdem.driver.failures import classify
 from pdem.errors import InputError, InstabilityError
 from pdem.io.checkpoint import CheckpointError, CheckpointWriteError
 from pdem.io.signals import EXIT_CHECKPOINTED_ON_SIGNAL
+from pdem.io.snapshots import SnapshotError, SnapshotWriteError
 from pdem.io.timeseries import ResultsFileError
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -31,6 +32,8 @@ CLASSES = [  # (exception, status, words of its line)
     (ResultsFileError("results.h5", "damaged"), 2, "error: results file results.h5: damaged"),
     (InstabilityError("step 3: body gid 1 ..."), 4, "unstable: step 3"),
     (CheckpointWriteError("ckpt_1.h5", "disk full"), 5, "error: writing checkpoint ckpt_1.h5"),
+    (SnapshotWriteError("snapshots.h5", "disk full"), 5, "error: writing snapshots snapshots.h5: disk full"),
+    (SnapshotError("snapshots.h5", "gid 3 passed twice"), 1, "internal error: SnapshotError: snapshots.h5"),
     (MemoryError(), 5, "error: out of memory (MemoryError)"),
     (OSError(errno.ENOSPC, "No space left on device", "r.h5"), 5, "no space left on the device writing r.h5"),
     (OSError("Can't write data (file write failed: errno = 28, ...)"), 5, "no space left on the device"),
@@ -73,6 +76,7 @@ def test_every_failure_class_maps_to_its_documented_status(exc, status, words):
     ("SIGTERM", 3, None),
     ("Instability", 4, "unstable: step 60: injected instability"),
     ("CheckpointWriteError", 5, "error: writing checkpoint ckpt_injected.h5"),
+    ("SnapshotWriteError", 5, "error: writing snapshots snapshots.h5"),
     ("MemoryError", 5, "error: out of memory"),
     ("ENOSPC", 5, "no space left on the device writing results.h5"),
     ("KeyboardInterrupt", 130, "interrupted"),

@@ -1,5 +1,6 @@
 """pdem.io.snapshots: gid-ordered particle snapshots whose XDMF index matches the HDF5 file."""
 
+import errno
 import xml.etree.ElementTree as ET
 
 import h5py
@@ -7,7 +8,7 @@ import numpy as np
 import pytest
 from io_fakecomm import run_ranks
 
-from pdem.io.snapshots import SnapshotError, SnapshotWriter
+from pdem.io.snapshots import SnapshotError, SnapshotWriteError, SnapshotWriter
 
 NUMPY_TYPE = {("Float", "8"): "float64", ("Float", "4"): "float32", ("Int", "8"): "int64",
               ("Int", "4"): "int32", ("UInt", "1"): "uint8"}
@@ -119,3 +120,21 @@ def test_duplicate_gid_raises_on_every_rank(tmp_path):
     _, errors = run_ranks(2, body)
     for exc in errors:
         assert isinstance(exc, SnapshotError) and "gid 1 passed twice" in str(exc)
+        assert not isinstance(exc, SnapshotWriteError)  # a bug upstream, not the system's failure
+
+
+def test_a_failed_write_raises_snapshot_write_error_on_every_rank(tmp_path, monkeypatch):
+    """Rank 0's write failing with an OSError (disk full) or MemoryError: `SnapshotWriteError`
+    (exit status 5) on every rank, naming the step and the cause."""
+    def full(self, *args):
+        raise OSError(errno.ENOSPC, "No space left on device", str(self.h5_path))
+
+    monkeypatch.setattr(SnapshotWriter, "_write_rank0", full)
+
+    def body(comm):
+        SnapshotWriter(tmp_path, comm=comm).write(7, 0.0, **particles(7, [0, 1] if comm.rank == 0 else [2]))
+
+    _, errors = run_ranks(2, body)
+    for exc in errors:
+        assert isinstance(exc, SnapshotWriteError), exc
+        assert "snapshots.h5: step 7:" in str(exc) and "No space left on device" in str(exc)

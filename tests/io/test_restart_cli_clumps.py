@@ -1,19 +1,22 @@
 """`pdem run` of a scene file with rigid and breakable clumps: a checkpoint written on 2 ranks, with
 clumps and partly broken bonds, resumed on 1, 2 and 3 ranks gives the uninterrupted serial run's
-bits: the final checkpoint's tables (bodies, clumps, clump members, contacts with the bond
-history), the time series and the fragment records written every 500 steps (run.fragments_every;
-`/fragments`, read back with `pdem.format.groups.read_fragments`).
+bits: the final checkpoint's tables (bodies, clumps, clump members, contacts with the bond history),
+the time series and the fragment records written every 500 steps (run.fragments_every; `/fragments`,
+read back with `pdem.format.groups.read_fragments`). And the same run stopped by SIGTERM mid-run on
+2 ranks (once its first scheduled checkpoint exists; the stop lands at the next stop poll) resumes
+on 3 and on 1 ranks to the same bits.
 """
 import shutil
+import signal
 from pathlib import Path
 
 import h5py
 import numpy as np
 import pytest
-from pdem_cli import needs_mpiexec, run_pdem
+from pdem_cli import needs_mpiexec, pdem_cmd, run_pdem, signal_when
 
 from pdem.format.groups import read_fragments
-from pdem.io.checkpoint import read_checkpoint
+from pdem.io.checkpoint import list_checkpoints, read_checkpoint
 
 N_STEPS, K_STEP = 3000, 1777
 
@@ -134,6 +137,36 @@ def test_clumps_written_on_2_resumed_on_n(runs, n_ranks):
     out = base / f"resume{n_ranks}"
     shutil.copytree(base / "k2", out)
     run_pdem(n_ranks, scene, out)
+    assert_same_as_ref(base, out)
+
+
+@pytest.fixture(scope="module")
+def stopped(runs):
+    """The run on 2 ranks stopped by SIGTERM once its first scheduled checkpoint exists."""
+    base, scene = runs
+    out = base / "sigterm2"
+    status, text = signal_when(pdem_cmd(2, scene, out), lambda: bool(list_checkpoints(out / "checkpoints")),
+                               signal.SIGTERM)
+    assert status == 3 and "stop signal received" in text, text[-3000:]
+    step = list_checkpoints(out / "checkpoints")[-1][0]
+    assert 1000 < step < N_STEPS and step % 100 == 0, step
+    return out, step
+
+
+@pytest.mark.parametrize("n_ranks", [3, 1])
+def test_clumps_stopped_by_sigterm_on_2_resumed_on_n(runs, stopped, n_ranks):
+    base, scene = runs
+    src, step = stopped
+    out = base / f"sigterm2_resume{n_ranks}"
+    shutil.copytree(src, out)
+    r = run_pdem(n_ranks, scene, out)
+    assert f"at step {step}" in r.stdout
+    assert_same_as_ref(base, out)
+
+
+def assert_same_as_ref(base, out):
+    """The final checkpoint's tables, the series and the fragment records of ``out`` are the
+    uninterrupted serial run's, bit for bit."""
     ref, ref_meta = final(base / "ref")
     got, got_meta = final(out)
     assert sorted(ref) == sorted(got) and "clump_members" in got
