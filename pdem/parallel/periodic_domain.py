@@ -83,8 +83,9 @@ class PeriodicSlabDomain(SlabDomain):
         most = max(1, int(np.floor(self.period / (halo * (1.0 + 1e-9)))))
         if self.comm.size > most:
             raise InputError(
-                f"{self.comm.size} ranks: too many for simulation.periodic = [{self.lo:g}, {self.hi:g}]: each of the "
-                f"ring's slabs must be at least one halo (2 r_max + skin = {halo:.4g} m) thick; use at most {most} ranks")
+                f"{self.comm.size} ranks: too many for simulation.periodic = [{self.lo:g}, {self.hi:g}]: each of "
+                f"the ring's slabs must be at least one halo (2 r_max + skin = {halo:.4g} m) thick; "
+                f"use at most {most} ranks")
 
     # ------------------------------------------------------------------ the ring
     def _directions(self, dest):
