@@ -503,6 +503,13 @@ class Scene:
             k = int(out[0])
             raise InputError(f"spheres: gid {int(cols['gid'][k])} at {ax} = {x[k]:g} m lies outside {head} "
                              "(bodies start inside [lo, hi))")
+        if not s.allow_initial_overlap:  # the pairs across the ends: the bodies near lo one period up
+            near = np.flatnonzero(x - lo <= halo)
+            if len(near):
+                img = {k: np.concatenate([v, v[near]]) for k, v in cols.items() if k in ("pos", "radius", "gid")}
+                img["pos"][len(x):, a] += hi - lo
+                img["clump"] = np.full(len(img["gid"]), -1, np.int64)
+                self._check_initial_overlaps(img)
         if s.domain is not None and (s.domain[0][a] > lo or s.domain[1][a] < hi):
             raise InputError(f"simulation.domain = {[list(c) for c in s.domain]}: must contain {head} along {ax} "
                              "(bodies wrap at the ends, they never leave)")

@@ -158,3 +158,8 @@ def test_bad_periodic_value_exits_2_with_one_line(tmp_path):
     r = run_pdem(1, f, tmp_path / "out", "--fresh", expect=2)
     lines = [x for x in r.stderr.splitlines() if x.strip()]
     assert len(lines) == 1 and "periodic" in lines[0], r.stderr
+
+
+def test_initial_overlap_across_the_ends_is_refused():
+    with pytest.raises(InputError, match="overlap by"):
+        scene([(0.004, 0.05, 0.05), (L - 0.0155, 0.05, 0.05)], allow_initial_overlap=False).build()
