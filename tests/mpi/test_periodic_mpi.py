@@ -101,3 +101,20 @@ def test_periodic_restart(comm, mpi_tmp_path):
     ref = reference()
     for name, a, b in zip(("gid", "pos", "vel"), ref["state"], bodies_by_gid(c, alone)):
         assert np.array_equal(a.view(np.uint8), b.view(np.uint8)), f"restart on one rank: {name}"
+
+
+def test_ring_exchange_closes_the_chain(comm):
+    """`neighbor_exchange(..., ring=True)`: rank 0's lo neighbour is rank size - 1 (a ring of one
+    rank gets its own rows back), with and without receive buffers."""
+    r, n = comm.rank, comm.size
+    lo_msg = np.full((2, 3), 10.0 * r + 1.0)  # to (r - 1) % n
+    hi_msg = np.full((3, 3), 10.0 * r + 2.0)  # to (r + 1) % n
+    from_lo, from_hi = comm.neighbor_exchange(lo_msg, hi_msg, ring=True)
+    assert np.array_equal(from_lo, np.full((3, 3), 10.0 * ((r - 1) % n) + 2.0))
+    assert np.array_equal(from_hi, np.full((2, 3), 10.0 * ((r + 1) % n) + 1.0))
+    into_lo, into_hi = np.empty((3, 3)), np.empty((2, 3))
+    comm.neighbor_exchange(lo_msg, hi_msg, into_lo, into_hi, ring=True)
+    assert np.array_equal(into_lo, from_lo) and np.array_equal(into_hi, from_hi)
+    if n > 1:  # the plain chain is unchanged: nothing from beyond its ends
+        a, b = comm.neighbor_exchange(lo_msg, hi_msg)
+        assert (len(a) == 0) == (r == 0) and (len(b) == 0) == (r == n - 1)
