@@ -161,6 +161,7 @@ class PeriodicSpherePairs(SpherePairs):
         super().__init__(law, PeriodicSphereSphere)
         self.name = "sphere_sphere"
         self.image = _NO_ROWS_F
+        self.home = None  # one rank: the owned row of each image row (`self_image_home`)
 
     def rebuild(self, sim, cell):
         p, dom = sim.particles, sim.domain
@@ -168,7 +169,7 @@ class PeriodicSpherePairs(SpherePairs):
         self.image = dom.image
         shifted = p.pos[:nt] + self.image[:nt]
         pi, pj = neighbors.build_sphere_pairs(shifted, p.radius, p.gid, nl, nt, sim.skin, cell, 8 * nt + 1000)
-        home = dom.self_image_home(nl, nt)
+        self.home = home = dom.self_image_home(nl, nt)
         if home is not None:  # one rank: (i', j) is the row (i, j') again
             keep = pi < nl
             pi, pj = pi[keep], pj[keep]
@@ -182,6 +183,14 @@ class PeriodicSpherePairs(SpherePairs):
 
     def kernel_arrays(self):
         return self.image, _NO_ROWS_I
+
+    def body_rows(self, rows):
+        """(body 1, body 2) rows; on one rank an image end is its owned body (counted as on
+        several ranks)."""
+        i, j = self.contacts.i[rows], self.contacts.j[rows]
+        if self.home is None:
+            return i, j
+        return i, np.where(j >= 0, self.home[np.maximum(j, 0)], j)
 
 
 class BoundaryContacts(ContactKind):

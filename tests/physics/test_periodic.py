@@ -163,3 +163,11 @@ def test_bad_periodic_value_exits_2_with_one_line(tmp_path):
 def test_initial_overlap_across_the_ends_is_refused():
     with pytest.raises(InputError, match="overlap by"):
         scene([(0.004, 0.05, 0.05), (L - 0.0155, 0.05, 0.05)], allow_initial_overlap=False).build()
+
+
+def test_a_contact_across_the_ends_counts_for_both_bodies():
+    """Two bodies touching across the ends: 1 contact per body, as for the interior pair."""
+    d = 2 * R - 5e-4
+    sim = scene([(0.004, 0.05, 0.05), (0.004 - d + L, 0.05, 0.05)]).build()
+    sim.run(1)
+    assert sim.contacts_per_particle() == 1.0
