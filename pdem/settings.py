@@ -10,7 +10,10 @@ checked and made once by `pdem.build.scene.Scene`, handed to `pdem.simulation.Si
   overlap over the smaller radius allowed, ``energy_check`` whether the mechanical energy may
   not grow, ``allow_initial_overlap`` whether bodies may start overlapping;
 - ``slab_axis`` (0, 1, 2) along which ranks cut the domain; ``law`` the contact law's name;
-  ``domain`` [[x, y, z] low, high] [m] the declared box bodies must stay in, or None.
+  ``domain`` [[x, y, z] low, high] [m] the declared box bodies must stay in, or None;
+  ``periodic`` (lo, hi) [m] along ``slab_axis``: the track has no ends (a body leaving at hi
+  re-enters at lo, contacts across the ends by minimum image: `pdem.parallel.periodic_domain`),
+  or None.
 
 A running simulation changes its gravity (shaking), damping and overlap limit as its own state
 (`Simulation.gravity`, ...); the settings themselves never change (a different setting is a
@@ -43,18 +46,22 @@ class SimulationSettings:
     slab_axis: int
     law: str
     domain: object = None
+    periodic: object = None
 
     def as_dict(self):
-        """The settings as the scene spec holds them (JSON-able; ``domain`` only when declared)."""
-        out = {name: getattr(self, name) for name in self.__dataclass_fields__ if name != "domain"}
+        """The settings as the scene spec holds them (JSON-able; ``domain`` and ``periodic`` only
+        when declared)."""
+        out = {name: getattr(self, name) for name in self.__dataclass_fields__ if name not in ("domain", "periodic")}
         out["gravity"] = list(self.gravity)
         if self.domain is not None:
             out["domain"] = [list(corner) for corner in self.domain]
+        if self.periodic is not None:
+            out["periodic"] = list(self.periodic)
         return out
 
 
 def simulation_settings(*, dt, damping, gravity, skin, dt_safety, dt_interval, pwave_factor, check_interval,
-                        max_overlap_ratio, energy_check, allow_initial_overlap, slab_axis, law, domain):
+                        max_overlap_ratio, energy_check, allow_initial_overlap, slab_axis, law, domain, periodic=None):
     """The checked `SimulationSettings` (`InputError` with one line naming the first bad value)."""
     if dt != AUTO:
         dt = number("dt", dt, 0.0, lo_open=True, allow="'auto' or a number > 0 [s]")
@@ -79,4 +86,20 @@ def simulation_settings(*, dt, damping, gravity, skin, dt_safety, dt_interval, p
         box = tuple(tuple(corner) for corner in box.tolist())
     if slab_axis not in (0, 1, 2) or isinstance(slab_axis, bool):
         raise InputError(f"slab_axis = {slab_axis!r}: must be 0, 1 or 2 (x, y, z)")
-    return SimulationSettings(**checked, slab_axis=slab_axis, law=law, domain=box)
+    period = None
+    if periodic is not None:
+        ends = _ends(periodic)
+        period = (float(ends[0]), float(ends[1]))
+    return SimulationSettings(**checked, slab_axis=slab_axis, law=law, domain=box, periodic=period)
+
+
+def _ends(periodic):
+    """[lo, hi] [m] of ``periodic``: two finite numbers, lo < hi."""
+    msg = f"periodic = {periodic!r}: must be [lo, hi], two numbers with lo < hi [m] along slab_axis"
+    if not isinstance(periodic, (list, tuple)) or len(periodic) != 2:
+        raise InputError(msg)
+    lo = number("periodic[0]", periodic[0], allow="a number [m]")
+    hi = number("periodic[1]", periodic[1], allow="a number [m]")
+    if not hi > lo:
+        raise InputError(msg)
+    return lo, hi

@@ -83,7 +83,7 @@ class Simulation:
         self.timers = Timers()
         self.energy_reference = None
         self.last_dt = None  # Δt of the last step taken (sim.dt may already be the next one's) [s]
-        self.kinds = make_kinds(self.law, walls, facets, boxes)
+        self.kinds = make_kinds(self.law, walls, facets, boxes, periodic=settings.periodic is not None)
         self.box_kinds = box_kinds(self.kinds)  # the kinds whose forces act on the boxes
         # rigid clumps owned here (pdem.bodies.clumps), None in a scene without clumps
         self.clumps = clumps

@@ -82,6 +82,29 @@ def lattice_scene(seed, shape, *, vx=0.0, vz=0.0, angvel=0.0, one_sided=False, m
     return scene, m, (lx, ly)
 
 
+def periodic_lattice_scene(seed, shape, *, vx=0.0, vz=0.0, **scene_kw):
+    """`lattice_scene`'s bodies with periodic ends along x ([0, nx spacing)) instead of its x end
+    walls: a floor and two side walls; the slab axis is x."""
+    nx, ny, nz = shape
+    rng = np.random.default_rng(seed)
+    g = np.stack(np.meshgrid(np.arange(nx), np.arange(ny), np.arange(nz), indexing="ij"), -1).reshape(-1, 3)
+    pos = (g + 0.5) * LATTICE_SPACING + rng.uniform(-0.0005, 0.0005, (len(g), 3))
+    radius = 0.005 * rng.uniform(0.6, 1.4, len(g))
+    vel = np.zeros((len(g), 3))
+    vel[:, 0] = rng.uniform(-vx, vx, len(g)) + 0.5 * vx  # a net drift along x: bodies wrap
+    if vz:
+        vel[:, 2] = rng.uniform(-vz, 0.0, len(g))
+    lx, ly = nx * LATTICE_SPACING, ny * LATTICE_SPACING
+    settings = {"dt": "auto", "damping": 0.3, "gravity": (0.0, 0.0, -9.81), "slab_axis": 0,
+                "periodic": [0.0, lx], **scene_kw}
+    scene = Scene(**settings)
+    m = scene.material(density=2700.0, **LATTICE_MATERIAL)
+    scene.add_spheres(pos, radius, m, vel=vel)
+    for axis, position, sense in ((2, 0.0, 1), (1, 0.0, 1), (1, ly, -1)):
+        scene.add_wall(axis, position, m, sense=sense)
+    return scene, m, (lx, ly)
+
+
 def box_on_lattice(blocked, load_point=None):
     """A steel box (2 kg) pushed down at 0.2 m/s onto a 20 x 6 x 6 lattice moving along x, loaded by
     two 0–5 N haversine cycles at 20 Hz (at ``load_point`` off its centre [m], if given); the slab

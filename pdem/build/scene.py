@@ -62,13 +62,13 @@ class Scene:
 
     def __init__(self, *, dt=AUTO, damping=0.0, gravity=(0.0, 0.0, 0.0), skin=None, dt_safety=0.8, dt_interval=100,
                  pwave_factor=0.5, check_interval=100, max_overlap_ratio=0.5, energy_check=True,
-                 allow_initial_overlap=False, slab_axis=0, law="linear", domain=None):
+                 allow_initial_overlap=False, slab_axis=0, law="linear", domain=None, periodic=None):
         self.law = get_law(law)
         self.settings = simulation_settings(
             dt=dt, damping=damping, gravity=gravity, skin=skin, dt_safety=dt_safety, dt_interval=dt_interval,
             pwave_factor=pwave_factor, check_interval=check_interval, max_overlap_ratio=max_overlap_ratio,
             energy_check=energy_check, allow_initial_overlap=allow_initial_overlap, slab_axis=slab_axis,
-            law=self.law.NAME, domain=domain)
+            law=self.law.NAME, domain=domain, periodic=periodic)
         self.materials = MaterialTable(self.law)
         self.walls = Walls()
         self.facets = Facets()
@@ -417,11 +417,18 @@ class Scene:
         s = self.settings
         skin = s.skin if s.skin is not None else 0.25 * float(np.mean(cols["radius"]))
         bonds = self._bond_rows(cols, skin) if self._bonds else None
+        if s.periodic is not None:
+            self._check_periodic(cols, clumps, skin)
         if domain is None:
             from ..parallel.comm import get_comm
 
             comm = get_comm(comm)
-            if comm.size == 1:
+            if s.periodic is not None:  # the slabs closed into a ring, on any rank count
+                from ..parallel.periodic_domain import PeriodicSlabDomain
+
+                domain = PeriodicSlabDomain(comm, s.slab_axis, *s.periodic)
+                domain.check_rank_count(cols, skin)
+            elif comm.size == 1:
                 domain = SerialDomain(comm)
             else:
                 from ..parallel.slab_domain import SlabDomain
@@ -455,6 +462,59 @@ class Scene:
         if not s.allow_initial_overlap:
             check_initial_overlaps(sim)
         return sim
+
+    def _check_periodic(self, cols, clumps, skin):
+        """One-line InputError for what periodic ends do not support or what contradicts them."""
+        s = self.settings
+        lo, hi = s.periodic
+        a = s.slab_axis
+        ax = "xyz"[a]
+        head = f"simulation.periodic = [{lo:g}, {hi:g}]"
+        halo = 2.0 * float(np.max(cols["radius"])) + float(skin) if len(cols["radius"]) else 0.0
+        if not hi - lo > 2.0 * halo:
+            raise InputError(f"{head}: the period {hi - lo:.4g} m must be longer than two halos (2 x (2 r_max + skin) "
+                             f"= {2.0 * halo:.4g} m) for minimum-image contacts across the ends")
+        if clumps is not None or self._bonds:
+            raise InputError(f"{head}: clumps (rigid or breakable) are not supported with periodic ends; "
+                             "use spheres")
+        if getattr(self.law, "CONTACT_POINT_LEVER", False):
+            raise InputError(f"{head}: the contact law {self.law.NAME!r} (torque lever from the contact point) is "
+                             "not supported with periodic ends; use linear, hertz_mindlin or viscous")
+        for k, w_axis in enumerate(self.walls.axis):
+            if int(w_axis) == a:
+                raise InputError(f"walls[{k}]: a wall perpendicular to {ax} (at {float(self.walls.position[k]):g} m) "
+                                 f"and {head} along {ax}: periodic ends have no end walls; remove one of them")
+
+        def crosses(what, k, x0, x1):
+            """Boundaries are not imaged: one within a halo of an end must cover the whole period."""
+            if (x0 - halo < lo or x1 + halo > hi) and not (x0 <= lo and x1 >= hi):
+                raise InputError(f"{what}[{k}]: spans [{x0:g}, {x1:g}] m along {ax}, within a halo ({halo:.4g} m) of "
+                                 f"an end of {head} without covering the whole period (not supported: keep it a "
+                                 "halo inside or extend it over the period)")
+
+        for k, v in enumerate(self.facets.vertices):
+            crosses("facets", k, float(v[:, a].min()), float(v[:, a].max()))
+        b = self.boxes
+        if len(b):
+            reach = np.einsum("bak,bk->ba", np.abs(b.rotation), b.half)  # half extent of the global bounding box
+            for k in range(len(b)):
+                crosses("boxes", k, float(b.center[k, a] - reach[k, a]), float(b.center[k, a] + reach[k, a]))
+        x = np.asarray(cols["pos"])[:, a]
+        out = np.flatnonzero((x < lo) | (x >= hi))
+        if len(out):
+            k = int(out[0])
+            raise InputError(f"spheres: gid {int(cols['gid'][k])} at {ax} = {x[k]:g} m lies outside {head} "
+                             "(bodies start inside [lo, hi))")
+        if not s.allow_initial_overlap:  # the pairs across the ends: the bodies near lo one period up
+            near = np.flatnonzero(x - lo <= halo)
+            if len(near):
+                img = {k: np.concatenate([v, v[near]]) for k, v in cols.items() if k in ("pos", "radius", "gid")}
+                img["pos"][len(x):, a] += hi - lo
+                img["clump"] = np.full(len(img["gid"]), -1, np.int64)
+                self._check_initial_overlaps(img)
+        if s.domain is not None and (s.domain[0][a] > lo or s.domain[1][a] < hi):
+            raise InputError(f"simulation.domain = {[list(c) for c in s.domain]}: must contain {head} along {ax} "
+                             "(bodies wrap at the ends, they never leave)")
 
     def clump_tables(self):
         """(clumps, clump_members): the declared rigid clumps as global tables, or (None, None)."""

@@ -180,6 +180,25 @@ class SphereSphere:
     contact_point = _ss_contact_point
 
 
+@njit(inline="always", cache=True)
+def _ssp_contact(fresh, i, j, pos, radius, other_f, other_i):
+    """Across periodic ends: the branch vector (x_j − x_i) + (s_j − s_i), s = ``other_f`` the
+    image shift of each particle row [m] (0 or ±L: s_j − s_i is exact, and so the same bits
+    whichever of the two bodies is the image on the rank computing it)."""
+    return _two_spheres(fresh, (pos[j, 0] - pos[i, 0]) + (other_f[j, 0] - other_f[i, 0]),
+                        (pos[j, 1] - pos[i, 1]) + (other_f[j, 1] - other_f[i, 1]),
+                        (pos[j, 2] - pos[i, 2]) + (other_f[j, 2] - other_f[i, 2]), radius[i] + radius[j])
+
+
+class PeriodicSphereSphere(SphereSphere):
+    """`SphereSphere` of a scene with periodic ends (`pdem.parallel.periodic_domain`): the
+    branch vector with the rows' image shifts (``other_f`` [n_rows, 3]). Its contact point is
+    not shifted: laws with ``CONTACT_POINT_LEVER`` are refused with periodic ends."""
+
+    name = "sphere_sphere_periodic"
+    contact = _ssp_contact
+
+
 # ---------------------------------------------------------------------------- sphere–wall
 @njit(inline="always", cache=True)
 def _wall_contact(fresh, s, w, pos, radius, other_f, other_i):

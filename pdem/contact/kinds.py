@@ -16,7 +16,8 @@ import numpy as np
 from . import forces, neighbors
 from ..bodies.clumps import drop_same_clump
 from .store import KEY_SHIFT_SPHERE, ContactList, index_pair_keys, sphere_pair_keys
-from .geometry import SphereBox, SphereFacet, SphereMember, SphereOrientedBox, SphereSphere, SphereWall
+from .geometry import (PeriodicSphereSphere, SphereBox, SphereFacet, SphereMember, SphereOrientedBox, SphereSphere,
+                       SphereWall)
 from .loops import NORMAL_COLUMNS, make_pair_loop
 
 _NO_ROWS_F = np.zeros((0, 1))
@@ -89,8 +90,8 @@ class ContactKind:
 class SpherePairs(ContactKind):
     sphere_pair = True
 
-    def __init__(self, law):
-        super().__init__(SphereSphere, law)
+    def __init__(self, law, geometry=SphereSphere):
+        super().__init__(geometry, law)
         self.slot = _NO_SLOTS  # per pair row: incidence entries of body 1 and body 2 (-1: a ghost)
         self.slot_f = _NO_SLOT_ROWS  # per incidence entry: force [N] and torque [N·m] on its body
         self.slot_t = _NO_SLOT_ROWS
@@ -147,6 +148,49 @@ class SpherePairs(ContactKind):
 
     def other_name(self, gid, row):
         return str(int(gid[self.contacts.j[row]]))
+
+
+class PeriodicSpherePairs(SpherePairs):
+    """Sphere pairs of a scene with periodic ends (`pdem.parallel.periodic_domain`): candidates
+    from the ghosts' image positions, the geometry with their image shifts. On a ring of one
+    rank a pair across the ends is found as (i, j') and (i', j): the row whose first body is
+    owned is kept and its image end summed into the owned body. Checkpoints call it
+    ``sphere_sphere`` as the plain kind."""
+
+    def __init__(self, law):
+        super().__init__(law, PeriodicSphereSphere)
+        self.name = "sphere_sphere"
+        self.image = _NO_ROWS_F
+        self.home = None  # one rank: the owned row of each image row (`self_image_home`)
+
+    def rebuild(self, sim, cell):
+        p, dom = sim.particles, sim.domain
+        nl, nt = p.n_local, p.n_total
+        self.image = dom.image
+        shifted = p.pos[:nt] + self.image[:nt]
+        pi, pj = neighbors.build_sphere_pairs(shifted, p.radius, p.gid, nl, nt, sim.skin, cell, 8 * nt + 1000)
+        self.home = home = dom.self_image_home(nl, nt)
+        if home is not None:  # one rank: (i', j) is the row (i, j') again
+            keep = pi < nl
+            pi, pj = pi[keep], pj[keep]
+        self.contacts.replace(pi, pj, sphere_pair_keys(pi, pj, p.gid), key_shift=KEY_SHIFT_SPHERE)
+        c = self.contacts
+        cj = c.j[: c.n] if home is None else home[c.j[: c.n]].astype(c.j.dtype)
+        self.ptr, self.rows, first = neighbors.build_incidence(nl, c.n, c.i, cj, p.gid)
+        self.slot = neighbors.pair_slots(c.n, len(self.rows), self.rows, first)
+        self.slot_f = np.zeros((len(self.rows), 3))
+        self.slot_t = np.zeros((len(self.rows), 3))
+
+    def kernel_arrays(self):
+        return self.image, _NO_ROWS_I
+
+    def body_rows(self, rows):
+        """(body 1, body 2) rows; on one rank an image end is its owned body (counted as on
+        several ranks)."""
+        i, j = self.contacts.i[rows], self.contacts.j[rows]
+        if self.home is None:
+            return i, j
+        return i, np.where(j >= 0, self.home[np.maximum(j, 0)], j)
 
 
 class BoundaryContacts(ContactKind):
@@ -214,9 +258,10 @@ class OrientedBoxContacts(BoundaryContacts):
         return sim.comm.exact_sum_groups(np.cross(arm, -c.force[rows]), b, len(self.boundary))
 
 
-def make_kinds(law, walls, facets, boxes):
-    """The contact kinds of a scene with these boundaries (only those it has), in summation order."""
-    kinds = [SpherePairs(law)]
+def make_kinds(law, walls, facets, boxes, periodic=False):
+    """The contact kinds of a scene with these boundaries (only those it has), in summation order;
+    ``periodic``: sphere pairs across periodic ends (`PeriodicSpherePairs`)."""
+    kinds = [PeriodicSpherePairs(law) if periodic else SpherePairs(law)]
     if len(walls):
         kinds.append(BoundaryContacts(SphereWall, law, walls, neighbors.build_wall_candidates))
     if len(facets):

@@ -108,6 +108,20 @@ def _check_recv(recv_lo, recv_hi):
                             f"(or both None), got {type(r).__name__}")
 
 
+def _ring_of_one(send_lo, send_hi, recv_lo, recv_hi):
+    """`neighbor_exchange` of a ring of one rank: what it sends "lo" comes back from "hi" and
+    the reverse (copies; into the receive buffers when given)."""
+    if recv_lo is None and recv_hi is None:
+        return np.array(send_hi, copy=True), np.array(send_lo, copy=True)
+    _check_recv(recv_lo, recv_hi)
+    if recv_lo.shape != np.shape(send_hi) or recv_hi.shape != np.shape(send_lo):
+        raise RuntimeError(f"neighbor_exchange: a ring of one rank sends {np.shape(send_hi)} and "
+                           f"{np.shape(send_lo)} rows into receive buffers of {recv_lo.shape} and {recv_hi.shape}")
+    recv_lo[...] = send_hi
+    recv_hi[...] = send_lo
+    return recv_lo, recv_hi
+
+
 def _cpu_set():
     try:
         return frozenset(os.sched_getaffinity(0))
@@ -175,7 +189,9 @@ class SerialComm:
         a, _ = _rows_array(array)
         return a.copy()
 
-    def neighbor_exchange(self, send_lo, send_hi, recv_lo=None, recv_hi=None):
+    def neighbor_exchange(self, send_lo, send_hi, recv_lo=None, recv_hi=None, ring=False):
+        if ring:  # one slab closed into a ring (periodic ends): it is its own lo and hi neighbour
+            return _ring_of_one(send_lo, send_hi, recv_lo, recv_hi)
         if recv_lo is not None or recv_hi is not None:
             _check_recv(recv_lo, recv_hi)
             for r in (recv_lo, recv_hi):
@@ -349,8 +365,9 @@ class MpiComm:
         """The predefined MPI datatype mpi4py uses for a numpy buffer of this dtype."""
         return self._MPI.Datatype.fromcode(dtype.char)
 
-    def neighbor_exchange(self, send_lo, send_hi, recv_lo=None, recv_hi=None):
-        """Exchange rows with the neighbouring slabs of a 1-D chain of ranks.
+    def neighbor_exchange(self, send_lo, send_hi, recv_lo=None, recv_hi=None, ring=False):
+        """Exchange rows with the neighbouring slabs of a 1-D chain of ranks (``ring``: closed
+        into a ring, rank 0's lo neighbour is rank size - 1 and the reverse; periodic ends).
 
         Parameters
         ----------
@@ -371,18 +388,21 @@ class MpiComm:
             (with this rank's own column count and dtype) at the ends of the chain. With
             ``recv_lo``/``recv_hi``: those arrays, filled.
         """
+        if ring and self.size == 1:
+            return _ring_of_one(send_lo, send_hi, recv_lo, recv_hi)
+        lo_rank, hi_rank = ((self.rank - 1) % self.size, (self.rank + 1) % self.size) if ring else (self._lo, self._hi)
         if recv_lo is not None or recv_hi is not None:
             _check_recv(recv_lo, recv_hi)
-            bad_hi = self._shift_into(np.ascontiguousarray(send_lo), self._lo, recv_hi, self._hi, _TAG_LO_SIZED)
-            bad_lo = self._shift_into(np.ascontiguousarray(send_hi), self._hi, recv_lo, self._lo, _TAG_HI_SIZED)
-            for got, recv, source in ((bad_lo, recv_lo, self._lo), (bad_hi, recv_hi, self._hi)):
+            bad_hi = self._shift_into(np.ascontiguousarray(send_lo), lo_rank, recv_hi, hi_rank, _TAG_LO_SIZED)
+            bad_lo = self._shift_into(np.ascontiguousarray(send_hi), hi_rank, recv_lo, lo_rank, _TAG_HI_SIZED)
+            for got, recv, source in ((bad_lo, recv_lo, lo_rank), (bad_hi, recv_hi, hi_rank)):
                 if got is not None:  # raised after both messages: the neighbours are not left waiting
                     raise RuntimeError(
                         f"neighbor_exchange: received {got} values from rank {source}, expected {recv.size} "
                         f"({recv.shape[0]} rows of the receive buffer): the two ranks' row counts disagree")
             return recv_lo, recv_hi
-        recv_from_hi = self._shift(send_lo, self._lo, self._hi, _TAG_LO)
-        recv_from_lo = self._shift(send_hi, self._hi, self._lo, _TAG_HI)
+        recv_from_hi = self._shift(send_lo, lo_rank, hi_rank, _TAG_LO)
+        recv_from_lo = self._shift(send_hi, hi_rank, lo_rank, _TAG_HI)
         return recv_from_lo, recv_from_hi
 
     # ---- node, abort

@@ -244,10 +244,9 @@ class SlabDomain:
             hops += 1
             if hops > comm.size:
                 raise RuntimeError("slab migration did not converge (a destination rank outside 0..size-1?)")
-            dest = ints[:, 0]
-            lo, hi = dest < rank, dest > rank
-            ri_lo, ri_hi = comm.neighbor_exchange(ints[lo], ints[hi])
-            rf_lo, rf_hi = comm.neighbor_exchange(floats[lo], floats[hi])
+            lo, hi = self._directions(ints[:, 0])
+            ri_lo, ri_hi = self._exchange(ints[lo], ints[hi])
+            rf_lo, rf_hi = self._exchange(floats[lo], floats[hi])
             ints = np.concatenate([ri_lo, ri_hi])
             floats = np.concatenate([rf_lo, rf_hi])
             here = ints[:, 0] == rank
@@ -258,6 +257,20 @@ class SlabDomain:
             return np.zeros((0, ints.shape[1]), np.int64), np.zeros((0, floats.shape[1]))
         return np.concatenate(got_i), np.concatenate(got_f)
 
+    def _directions(self, dest):
+        """(towards rank - 1, towards rank + 1): bool masks of rows addressed to ranks ``dest``."""
+        rank = self.comm.rank
+        return dest < rank, dest > rank
+
+    def _exchange(self, send_lo, send_hi):
+        """`neighbor_exchange` with the neighbouring slabs (of the chain; a ring in the periodic
+        domain)."""
+        return self.comm.neighbor_exchange(send_lo, send_hi)
+
+    def _far(self, dest):
+        """bool: owners ``dest`` more than one slab away from this rank."""
+        return np.abs(dest - self.comm.rank) > 1
+
     def _migrate(self, sim, edges_moved):
         p = sim.particles
         comm, rank = self.comm, self.comm.rank
@@ -266,7 +279,7 @@ class SlabDomain:
         x = self._owner_coordinate(sim)
         dest = slabs.owner(x, self.edges) if nl else np.zeros(0, np.int64)
         leave = dest != rank
-        far = leave & (np.abs(dest - rank) > 1)
+        far = leave & self._far(dest)
         if comm.any_flag(bool(far.any()) and not edges_moved):
             msg = ""
             if far.any():

@@ -104,7 +104,7 @@ DEFAULTS = {
     "sleeper_material": "concrete",
     **PREPARATION_DEFAULTS,
 }
-OPTIONAL = {"sleeper_mass", "sleeper_blocked"}
+OPTIONAL = {"sleeper_mass", "sleeper_blocked", "periodic"}  # periodic: no ends along x (`periodic_settings`)
 TRAFFIC_DEFAULTS = {
     "program": "axles", "prepared": "", "forces_every": 0,
     # program "axles"
@@ -185,10 +185,25 @@ def track_settings(doc):
         raise InputError(f"track.sleeper_blocked = {blocked!r}: a half model needs 'y' (no translation across the "
                          "symmetry plane)")
     c["sleeper_blocked"] = blocked
+    periodic_settings(doc, c)
     if "steps" in doc.get("run", {}):
         raise InputError("run.steps: not used by a track scene (its stages end on their own criteria; "
                          "`pdem run --steps N` stops one early); remove it")
     return c
+
+
+def periodic_settings(doc, c):
+    """``[track] periodic = true``: the track has no ends along x (the engine's periodic ends over
+    [0, L], L = sleepers x spacing: no end walls, `pdem.parallel.periodic_domain`); checked."""
+    if "periodic" not in c:
+        return
+    c["periodic"] = boolean("track.periodic", c["periodic"])
+    sim = doc.get("simulation", {})
+    if "periodic" in sim:
+        raise InputError("simulation.periodic: set by track.periodic in a track scene; remove it")
+    if c["periodic"] and sim.get("slab_axis", "x") != "x":
+        raise InputError(f"simulation.slab_axis = {sim['slab_axis']!r}: track.periodic = true needs 'x' (the track "
+                         "axis)")
 
 
 def traffic_settings(doc, c):
@@ -244,6 +259,9 @@ def rail_settings(t, given, c, train):
     if t["rail_model"] == "share":
         for k in sorted(BEAM_KEYS & set(given)):
             raise InputError(f"traffic.{k}: not used by rail_model = 'share'; remove it")
+        if c.get("periodic"):
+            raise InputError("traffic.rail_model = 'share': its rail-seat shares end at the track's ends; "
+                             "track.periodic = true needs rail_model = 'beam' (a periodic rail) for axles")
         return t
     t["rail_pad_stiffness"] = number("traffic.rail_pad_stiffness", t["rail_pad_stiffness"], 0.0, lo_open=True,
                                      allow="a number > 0 [N/m]")
@@ -253,6 +271,9 @@ def rail_settings(t, given, c, train):
     if t["rail_length"] > length:
         raise InputError(f"traffic.rail_length = {t['rail_length']!r}: longer than the track ({length:g} m = sleepers "
                          "x spacing, between the end walls)")
+    if c.get("periodic") and t["rail_length"] != length:
+        raise InputError(f"traffic.rail_length = {t['rail_length']!r}: track.periodic = true needs the rail over the "
+                         f"whole period ({length:g} m = sleepers x spacing); remove it")
     rails = 1 if c["half"] else 2
     t["body_mass"] = c["body_mass"] - rails * c["rail_mass"] * c["spacing"]
     sleeper_rails(c, t, train)  # checks that the rail reaches over every seat
@@ -267,8 +288,9 @@ def sleeper_rails(c, t, train):
                          "on one pad has no bending)")
     length, mid = t["rail_length"], profile(c)["length"] / 2
     section = RailSection(t["rail_bending_stiffness"], c["rail_mass"])
+    ring = {"periodic": True} if c.get("periodic") else {}  # the rail's ends joined over the period
     beams = [RailBeam(x, t["rail_pad_stiffness"], section=section, x_start=mid - length / 2, x_end=mid + length / 2,
-                      label="traffic.rail_length") for _ in range(1 if c["half"] else 2)]
+                      label="traffic.rail_length", **ring) for _ in range(1 if c["half"] else 2)]
     return SleeperRails(beams, train)
 
 
@@ -373,12 +395,15 @@ def stage_scene(doc, c, tables, sleepers=True, loads=None, centres=None, mass=No
     each of ``mass`` [kg], default the track's ``body_mass``)."""
     base = {k: v for k, v in doc.items() if k in ("simulation", "materials")}
     base["simulation"] = {"slab_axis": "x", **base.get("simulation", {}), "allow_initial_overlap": True}
-    scene = scene_from_dict(base)
     g = profile(c)
+    if c.get("periodic"):  # no ends: periodic over [0, L] instead of the end walls
+        base["simulation"]["periodic"] = [0.0, g["length"]]
+    scene = scene_from_dict(base)
     wm = c["wall_material"]
     scene.add_wall("z", 0.0, c["base_material"], sense=1, name="subgrade")
-    scene.add_wall("x", 0.0, wm, sense=1, name="x_min")
-    scene.add_wall("x", g["length"], wm, sense=-1, name="x_max")
+    if not c.get("periodic"):
+        scene.add_wall("x", 0.0, wm, sense=1, name="x_min")
+        scene.add_wall("x", g["length"], wm, sense=-1, name="x_max")
     scene.add_wall("y", g["y_lo"], wm, sense=1, name="symmetry" if c["half"] else "y_min")
     scene.add_wall("y", g["y_toe"], wm, sense=-1, name="y_max")
     if sleepers:
