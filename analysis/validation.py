@@ -122,8 +122,8 @@ def _read_text(root, spec):
 
 def extract_text(spec, root):
     """``file`` and a regular expression ``pattern`` with named groups: ``value`` (the first match,
-    or every match with ``all = true``: one value per run, or one group per match with ``labels``) or ``mean``, ``half``, ``n`` (a summary
-    written by a campaign analysis)."""
+    or every match with ``all = true``: one value per run, or one group per match with ``labels``)
+    or ``mean``, ``half``, ``n`` (a summary written by a campaign analysis)."""
     text, p = _read_text(root, spec)
     if text is None:
         return None
