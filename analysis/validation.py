@@ -571,7 +571,82 @@ def write_table(rows_file=ROWS, out=TABLE, root=".", do_refresh=True) -> list[Pa
     return refreshed + [out]
 
 
+# ---------------------------------------------------------------------------- cost projection
+@dataclass(frozen=True)
+class CostProjection:
+    """A short run's measured rate and the cost of the steps a full run needs."""
+
+    steps_done: int
+    wall_s: float          # wall time of the short run [s]
+    ranks: int
+    dt_last: float         # the short run's last time step [s]
+    steps_needed: float
+    wall_needed_s: float   # projected wall time [s]
+    core_hours: float      # projected wall x ranks [h]
+
+    def lines(self):
+        rate = self.steps_done / self.wall_s
+        return [f"measured: {self.steps_done} steps in {self.wall_s:.1f} s wall on {self.ranks} rank(s): "
+                f"{rate:.4g} steps/s (last dt {self.dt_last:.4g} s)",
+                f"projected: {self.steps_needed:.4g} steps: {self.wall_needed_s / 3600:.3g} h wall, "
+                f"{self.core_hours:.3g} core-h"]
+
+
+def project(steps_done, wall_s, ranks, steps_needed, dt_last=math.nan) -> CostProjection:
+    """Measured steps/s x the steps needed (wall) and x ranks (core-hours)."""
+    if steps_done <= 0 or wall_s <= 0:
+        raise ValidationError(f"a short run of {steps_done} steps in {wall_s} s cannot be projected")
+    wall = float(steps_needed) * float(wall_s) / float(steps_done)
+    return CostProjection(int(steps_done), float(wall_s), int(ranks), float(dt_last), float(steps_needed), wall,
+                          wall * ranks / 3600.0)
+
+
+def project_run(run_dir, steps=None, simulated_time=None, stage=None) -> CostProjection:
+    """The projection from a short run: the steps and wall time of one finished stage (``stage``,
+    default the last one) from its run_info.json, its ranks, and the last Δt of its results.h5
+    series; the steps needed are ``steps`` or ``simulated_time`` / that Δt."""
+    from pdem.format.read import read_results
+
+    run_dir = Path(run_dir)
+    info_path = run_dir / "run_info.json"
+    if not info_path.is_file():
+        raise ValidationError(f"{run_dir}: no run_info.json (a staged run writes it as its stages end)")
+    info = json.loads(info_path.read_text())
+    stages = info.get("stages") or []
+    names = [st["stage"] for st in stages]
+    if not stages or (stage is not None and stage not in names):
+        raise ValidationError(f"{info_path}: stage {stage!r} not finished (finished: {', '.join(names) or 'none'})")
+    k = names.index(stage) if stage is not None else len(stages) - 1
+    before = stages[k - 1]["step_end"] if k > 0 else 0
+    done, wall = int(stages[k]["step_end"] - before), float(stages[k]["wall_s"])
+    r = read_results(run_dir / "results.h5", lenient=True)
+    dt_last = float(r.series["dt"][-1]) if r is not None and "dt" in r.series and len(r.series["dt"]) else math.nan
+    if steps is None:
+        if simulated_time is None or not math.isfinite(dt_last):
+            raise ValidationError("give --steps or --simulated-time (with a /series/dt in the run)")
+        steps = simulated_time / dt_last
+    return project(done, wall, int(info.get("ranks", 1)), steps, dt_last)
+
+
+def add_cost_parser(sub) -> None:
+    p = sub.add_parser(
+        "cost", help="project a campaign member's cost from a short run",
+        description="Measured steps/s of one stage of a short run (its run_info.json; e.g. a member with one "
+                    "load cycle instead of ten) x the steps a full run needs: wall time and core-hours.")
+    p.add_argument("results", type=Path, metavar="RUN_DIR", help="the short run's directory")
+    p.add_argument("--steps", type=float, help="steps the full run needs")
+    p.add_argument("--simulated-time", type=float, metavar="S", help="or: simulated time it needs (÷ last Δt)")
+    p.add_argument("--stage", help="the stage whose rate is measured (default: the last finished)")
+
+    def run(a):
+        proj = project_run(a.results, a.steps, a.simulated_time, a.stage)
+        print("\n".join(proj.lines()))
+        return []
+    p.set_defaults(run=run)
+
+
 def add_parser(sub) -> None:
+    add_cost_parser(sub)
     p = sub.add_parser(
         "validate", help="the validation table: pdem against the seeds' figures and tables",
         description="Read the row list and the result files it names (refreshing committed values files from "

@@ -170,3 +170,11 @@ def test_bad_row_file_is_one_line_exit_2(tmp_path):
                         "--out", str(tmp_path / "t.md")], capture_output=True, text=True, cwd=ROOT)
     assert p.returncode == 2
     assert p.stderr.count("\n") == 1 and "comparison = 'maybe'" in p.stderr and "Traceback" not in p.stderr
+
+
+def test_cost_projection_is_steps_over_the_measured_rate():
+    p = V.project(steps_done=2000, wall_s=4.0, ranks=2, steps_needed=7.0e6)
+    assert p.wall_needed_s == pytest.approx(7.0e6 / 500.0)
+    assert p.core_hours == pytest.approx(2 * 7.0e6 / 500.0 / 3600.0)
+    with pytest.raises(V.ValidationError):
+        V.project(0, 1.0, 1, 10)
