@@ -14,7 +14,8 @@ Two steps:
    ``results.h5`` and written to the values file (members, parameters, values in SI units, the
    result file of each value). Without the directory the committed file is used as it is.
 2. *table*: every row's extractor reads its file(s); a missing file gives "not run here", never a
-   number.
+   number. A row may name ``[[row.fallback]]`` extractors (a committed result of an earlier, smaller
+   campaign) used, and said to be used, while its own campaign has not run.
 
 Statistics: pdem's number is the mean over the seeds found with the Student-t 95 % interval of the
 mean, t_{0.975, n−1} s/√n (`analysis.variability`, scipy). Verdicts, computed from the numbers:
@@ -123,7 +124,8 @@ def _read_text(root, spec):
 def extract_text(spec, root):
     """``file`` and a regular expression ``pattern`` with named groups: ``value`` (the first match,
     or every match with ``all = true``: one value per run, or one group per match with ``labels``)
-    or ``mean``, ``half``, ``n`` (a summary written by a campaign analysis)."""
+    or ``mean``, ``half``, ``n`` (a summary written by a campaign analysis), or ``v0``, ``v1``, ... and
+    ``n`` (the means of several groups of n runs each, named by ``labels``; no interval)."""
     text, p = _read_text(root, spec)
     if text is None:
         return None
@@ -142,8 +144,15 @@ def extract_text(spec, root):
             return [sample_of([v], label, src) for v, label in zip(values, spec["labels"], strict=True)]
         return [sample_of(values, spec.get("label", ""), src)]
     m = matches[0]
+    if "v0" in pat.groupindex:  # one group mean per vK, all over n runs (a summary table's row)
+        keys = sorted((k for k in pat.groupindex if re.fullmatch(r"v\d+", k)), key=lambda k: int(k[1:]))
+        labels = spec.get("labels", keys)
+        if len(labels) != len(keys):
+            raise ValidationError(f"{p}: {len(keys)} groups v0.. in the pattern for {len(labels)} labels")
+        return [sample_from_summary(label, int(m.group("n")), float(m.group(k)), sources=src)
+                for k, label in zip(keys, labels, strict=True)]
     return [sample_from_summary(spec.get("label", ""), int(m.group("n")), float(m.group("mean")),
-                                half=float(m.group("half")), sources=(str(spec["file"]),))]
+                                half=float(m.group("half")), sources=src)]
 
 
 def extract_json(spec, root):
@@ -272,6 +281,15 @@ def member_quantity(member, quantity):
         last = analyse_grading(read_fragments(member.results_path)).summaries[-1]
         return 100.0 * {"single_mass_percent": last.fraction_single, "large_mass_percent": last.fraction_large,
                         "single_count_percent": last.count_single, "large_count_percent": last.count_large}[name]
+    if group == "checks":  # the measures of analysis.box_checks, NAME@CYCLE
+        from . import box_checks
+
+        fname, _, at = name.partition("@")
+        cycle = int(at or 1)
+        if fname == "within":
+            return float(box_checks.within(member)[cycle - 1])
+        return float({"sinking_after_peak": box_checks.sinking_after_peak, "rebound": box_checks.rebound,
+                      "kept_fraction": box_checks.kept_fraction}[fname](member, cycle))
     from .campaign import Quantity
 
     return Quantity.parse(quantity).value(member)
@@ -316,7 +334,7 @@ def refresh(rows, root) -> list[Path]:
 # ---------------------------------------------------------------------------- verdicts
 def anova(samples):
     """p of a one-way ANOVA from the groups' n, mean and std (None if a group has n < 2)."""
-    if any(s.n < 2 for s in samples) or len(samples) < 2:
+    if any(s.n < 2 or not math.isfinite(s.std) for s in samples) or len(samples) < 2:
         return None
     n = np.array([s.n for s in samples], float)
     m = np.array([s.mean for s in samples])
@@ -370,6 +388,7 @@ class RowResult:
 
     row: dict
     samples: list | None
+    spec: dict = field(default_factory=dict)  # the [row.pdem] or [[row.fallback]] that gave the samples
     cell: str = NOT_RUN
     numbers: list = field(default_factory=list)
     verdict: str = ""
@@ -384,6 +403,9 @@ def fmt(x) -> str:
 
 
 def _sample_text(s: Sample, numbers):
+    if s.n >= 2 and not math.isfinite(s.half):  # a mean from a summary without its spread
+        numbers += [s.mean, s.n]
+        return f"{fmt(s.mean)} (mean of n = {s.n}; no interval in the file)"
     if s.n >= 2:
         numbers += [s.mean, s.half, s.n]
         return f"{fmt(s.mean)} ± {fmt(s.half)} (n = {s.n})"
@@ -393,13 +415,18 @@ def _sample_text(s: Sample, numbers):
 
 def evaluate(row, root) -> RowResult:
     """Extract pdem's numbers of a row and compute its verdict."""
-    spec = row["pdem"]
-    try:
-        samples = EXTRACTORS[spec["extractor"]](spec, root)
-    except KeyError as err:
-        raise ValidationError(f"row {row['id']}: {err} missing or unknown (extractors: {', '.join(EXTRACTORS)})") \
-            from None
-    res = RowResult(row, samples)
+    samples, used = None, None
+    for spec in [row["pdem"]] + list(row.get("fallback", [])):
+        try:
+            samples = EXTRACTORS[spec["extractor"]](spec, root)
+        except KeyError as err:
+            raise ValidationError(f"row {row['id']}: {err} missing or unknown (extractors: "
+                                  f"{', '.join(EXTRACTORS)})") from None
+        used = spec
+        if samples is not None:
+            break
+    spec = used if samples is not None else row["pdem"]
+    res = RowResult(row, samples, spec=spec)
     kind = row["comparison"]
     if samples is None or (not samples and spec["extractor"] != "none"):
         res.verdict = "not comparable" if kind == "none" else f"{NOT_RUN}: no verdict"
@@ -417,13 +444,15 @@ def evaluate(row, root) -> RowResult:
         res.verdict, res.rule = "not comparable", row["reason"]
     elif kind == "value":
         s, seed = samples[0], float(row["seed"])
-        in_ci = s.n >= 2 and s.low <= seed <= s.high
+        has_ci = s.n >= 2 and math.isfinite(s.half)
+        in_ci = has_ci and s.low <= seed <= s.high
         rng = row.get("seed_range")
         in_range = rng is not None and rng[0] <= s.mean <= rng[1]
         res.verdict = "agrees within scatter" if in_ci or in_range else _differs(row)
         res.rule = ("seed inside pdem's 95 % CI" if in_ci else "pdem's mean inside the seed's range" if in_range else
                     "seed outside pdem's 95 % CI" + (" and pdem's mean outside the seed's range" if rng else "")
-                    if s.n >= 2 else "one run: no CI" + ("; pdem outside the seed's range" if rng else ""))
+                    if has_ci else "no CI (one run, or a mean without its spread)"
+                    + ("; pdem outside the seed's range" if rng else ""))
     elif kind == "scatter":
         s, n_runs = samples[0], int(row.get("seed_n", 10))
         own, (lo, hi) = scatter_interval(s, n_runs)
@@ -454,9 +483,9 @@ def evaluate(row, root) -> RowResult:
             rule = (f"means {'in' if ordered else 'not in'} the stated order ({trend.replace('_', ' ')})"
                     + ("" if p is None else "; ANOVA p < 0.05" if p < 0.05 else "; ANOVA p ≥ 0.05"))
         if p is None and trend in ("equal", "differ"):
-            rule = "one run per group: no test"
+            rule = "no spread per group in the file: no test"
         if p is None and ok:
-            rule += "; one run per group: ordering only"
+            rule += "; no spread per group in the file: ordering only"
         res.verdict = "agrees within scatter" if ok else _differs(row)
         res.rule = rule
     res.numbers = numbers
@@ -469,8 +498,10 @@ def _cell(text) -> str:
 
 
 def _made_by(row, res):
-    spec = row["pdem"]
+    spec = res.spec or row["pdem"]
     parts = [f"`{row['campaign']}`"]
+    if spec is not row["pdem"]:
+        parts.append(f"not run here yet; the committed fallback ({spec.get('note', 'an earlier campaign')}) is shown")
     if spec["extractor"] != "none":
         sources = sorted({src for s in (res.samples or []) for src in s.sources})
         files = sources if sources and len(sources) <= 2 else [spec["file"]]
@@ -480,7 +511,8 @@ def _made_by(row, res):
     parts.append(f"cost: {row['cost']}")
     n = min((s.n for s in res.samples), default=0) if res.samples else 0
     if res.samples and n < FEW_SEEDS:
-        parts.append(f"**n < {FEW_SEEDS}**: {row.get('few_seeds', 'fewer seeds finished')}")
+        why = row.get("few_seeds") or (spec.get("note") if spec is not row["pdem"] else None) or "fewer seeds finished"
+        parts.append(f"**n < {FEW_SEEDS}**: {why}")
     return "; ".join(parts)
 
 
@@ -550,9 +582,10 @@ def read_rows(path) -> list[dict]:
         status = row.get("explanation", {}).get("status", "untested")
         if status not in ("tested", "untested"):
             raise ValidationError(f"{path}: row {rid}: explanation.status = {status!r}: must be tested or untested")
-        if row["pdem"].get("extractor") not in EXTRACTORS:
-            raise ValidationError(f"{path}: row {rid}: pdem.extractor = {row['pdem'].get('extractor')!r}: "
-                                  f"must be one of {', '.join(EXTRACTORS)}")
+        for where, spec in [("pdem", row["pdem"])] + [("fallback", f) for f in row.get("fallback", [])]:
+            if spec.get("extractor") not in EXTRACTORS:
+                raise ValidationError(f"{path}: row {rid}: {where}.extractor = {spec.get('extractor')!r}: "
+                                      f"must be one of {', '.join(EXTRACTORS)}")
     return rows
 
 
