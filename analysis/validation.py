@@ -270,7 +270,7 @@ def member_quantity(member, quantity):
     if group == "oedometer":
         from .oedometer import analyse, read_oedometer
 
-        r = analyse(read_oedometer(member.results_path))
+        r = analyse(read_oedometer(member.results_path).series)
         return {"unloading_kN_per_mm": r.unloading_stiffness * 1e-6, "loading_kN_per_mm": r.loading_stiffness * 1e-6,
                 "u_max_mm": r.u_max * 1e3, "u_end_mm": r.u_end * 1e3}[name]
     if group == "grading":
