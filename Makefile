@@ -14,7 +14,7 @@ PYTEST  := $(VPY) -m pytest -q --timeout=900 --timeout-method=thread
 MPI_PYTEST := timeout -k 10 1500 $(MPIEXEC) -n $(NP) $(VPY) -m mpi4py -m pytest -q \
               --timeout=900 --timeout-method=thread --capture=sys
 
-.PHONY: venv run test lint test-quick test-unit test-nojit test-mpi bench validate box-checks clean
+.PHONY: venv run test lint test-quick test-unit test-nojit test-mpi bench validate validation-table box-checks clean
 
 venv: $(VENV)/.done
 
@@ -56,8 +56,17 @@ test-nojit: venv
 test-mpi: venv
 	$(MPI_PYTEST) tests/mpi
 
+# The external comparisons (tests marked validate: Yade, analytic solutions), then the validation
+# table against the seeds' figures and tables (docs/validation.md).
 validate: venv
 	$(PYTEST) -m validate tests
+	$(MAKE) --no-print-directory validation-table
+
+# docs/validation_table.md from jobs/validation/rows.toml and the result files it names; a campaign
+# directory under runs/ with finished members refreshes its committed docs/validation/<name>/values.json
+# first. Rows whose files are absent say "not run here" with their campaign file.
+validation-table: venv
+	$(VPY) -m analysis validate
 
 # Throughput on one rank (1 and 2 threads), then 1 vs 2 MPI ranks, then the start-up time, then the
 # full-stiffness box test on 1 and 2 ranks (bench/results.json,

@@ -2,7 +2,8 @@
 ``track``, ``oedometer`` (each defined by its module's ``add_parser``), ``campaign DIR`` (`analysis.campaign`),
 ``error-vs-runtime DIR`` (`analysis.error_vs_runtime`), ``stability DIR [DIR ...]``
 (`analysis.stability`: exit status 1 when the stability map fails or is not finished) and
-``box-checks CALIBRATION_DIR CHECKS_DIR`` (`analysis.box_checks`).
+``box-checks CALIBRATION_DIR CHECKS_DIR`` (`analysis.box_checks`) and ``validate``
+(`analysis.validation`: the validation table from jobs/validation/rows.toml).
 
 This module owns the CLI only: argument parsing, the output directory and exit status. Bad
 input (not a pdem result, no complete cycle, unwritable output) exits with status 2 and one
@@ -17,7 +18,7 @@ from pathlib import Path
 
 from pdem.format.read import ResultFileError
 
-from . import blast, grading, oedometer, run_summary, track
+from . import blast, grading, oedometer, run_summary, track, validation
 from .stiffness import LOADING_WINDOW, UNLOADING_FRACTION
 from .summary import run_box
 
@@ -49,7 +50,7 @@ def build_parser() -> argparse.ArgumentParser:
     box.add_argument("--unload-fraction", type=float, default=UNLOADING_FRACTION,
                      metavar="F", help="part of the force drop used for the unloading "
                                        "stiffness (default: %(default)s)")
-    for module in (grading, blast, track, oedometer, run_summary):
+    for module in (grading, blast, track, oedometer, run_summary, validation):
         module.add_parser(sub)
     from . import box_checks, campaign, error_vs_runtime, stability
 
@@ -73,7 +74,7 @@ def main(argv=None) -> int:
             written = args.run(args)
         else:
             written = run_box(args.results, args.out, tuple(args.window), args.unload_fraction)
-    except ResultFileError as err:
+    except (ResultFileError, validation.ValidationError) as err:
         return _fail(str(err))
     except (ValueError, OSError) as err:
         inputs = args.results if isinstance(args.results, list) else [args.results]

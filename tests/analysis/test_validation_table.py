@@ -1,0 +1,180 @@
+"""The validation table (analysis/validation.py, docs/validation_table.md, issue #32).
+
+Every number in pdem's column must come from a file: the committed table is regenerated from the
+committed result files and compared, each numeric token of pdem's column is traced to a number an
+extractor returned, and a row whose result file is missing says "not run here" and no number.
+The statistics are checked against scipy's own (t interval, one-way ANOVA) and against the
+tabulated d₂ constants of control charts.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from scipy import stats
+
+from analysis import validation as V
+
+ROOT = Path(__file__).resolve().parents[2]
+NUMBER = re.compile(r"-?\d+(?:\.\d+)?(?:e[+-]?\d+)?")
+
+
+@pytest.fixture(scope="module")
+def built():
+    rows, results, _ = V.build(V.ROWS, ROOT, do_refresh=False)
+    return rows, results
+
+
+def _pdem_cells(lines):
+    """pdem's column (the 4th) of every row of a generated table, by row id."""
+    cells = {}
+    for line in lines:
+        m = re.match(r"^\| \d+ `([^`]+)` \|", line)
+        if m:
+            cols = [c.strip() for c in re.split(r"(?<!\\)\|", line)[1:-1]]
+            cells[m.group(1)] = cols[3]
+    return cells
+
+
+def test_committed_table_is_regenerated_from_the_files(built):
+    rows, results = built
+    text = "\n".join(V.table_lines(results, V.ROWS)) + "\n"
+    assert (ROOT / V.TABLE).read_text() == text, "docs/validation_table.md is stale: run make validate"
+
+
+def test_at_least_twenty_rows_and_some_numbers(built):
+    rows, results = built
+    assert len(rows) >= 20
+    assert sum(1 for r in results if r.samples) >= 5
+
+
+def test_every_number_in_pdems_column_comes_from_an_extractor(built):
+    rows, results = built
+    cells = _pdem_cells((ROOT / V.TABLE).read_text().splitlines())
+    assert set(cells) == {r["id"] for r in rows}
+    for res in results:
+        cell = cells[res.row["id"]]
+        allowed = {V.fmt(x) for x in res.numbers}
+        # the labels of a trend's groups are the row file's, not pdem's numbers
+        body = re.sub(r"\[[^\]]*\]$", "", cell)
+        parts = [p.split("→", 1)[-1] for p in body.split(";")]
+        tokens = [t for p in parts for t in NUMBER.findall(p)]
+        for t in tokens:
+            assert t in allowed, f"{res.row['id']}: {t!r} in {cell!r} is not an extractor's number"
+        if res.samples is None:
+            assert tokens == [] and cell == V.NOT_RUN
+
+
+def test_means_and_intervals_are_those_of_the_values(built):
+    """Independent of the module's statistics: numpy's mean and scipy's t interval."""
+    _, results = built
+    checked = 0
+    for res in results:
+        for s in res.samples or []:
+            if len(s.values) >= 2:
+                lo, hi = stats.t.interval(0.95, len(s.values) - 1, loc=np.mean(s.values), scale=stats.sem(s.values))
+                assert s.mean == pytest.approx(np.mean(s.values), rel=1e-12)
+                assert s.half == pytest.approx((hi - lo) / 2, rel=1e-9)
+                checked += 1
+    assert checked >= 2
+
+
+def _row(**kw):
+    row = {"id": "x", "title": "t", "where": "w", "quote": "q", "english": "e", "comparison": "value",
+           "seed": 10.0, "unit": "mm", "campaign": "jobs/campaigns/x.toml", "cost": "1 h", "differences": []}
+    row.update(kw)
+    return row
+
+
+@pytest.mark.parametrize("pdem", [
+    {"extractor": "campaign", "file": "docs/validation/nowhere/values.json", "quantity": "cycles.settlement_peak@1"},
+    {"extractor": "text", "file": "docs/nowhere.txt", "pattern": r"(?P<value>\d+)"},
+    {"extractor": "campaign_txt", "file": "docs/nowhere/campaign.txt", "quantity": "q"},
+    {"extractor": "blast_compare", "file": "docs/nowhere/compare.txt", "plate": 244, "quantity": "I_s/I_in"},
+])
+def test_a_missing_run_says_not_run_here_never_a_number(tmp_path, pdem):
+    res = V.evaluate(_row(pdem=pdem), tmp_path)
+    assert res.cell == V.NOT_RUN
+    assert not NUMBER.search(res.cell)
+    assert res.verdict.startswith(V.NOT_RUN) and res.numbers == []
+    line = V.table_lines([res], "rows.toml")[-1]
+    assert _pdem_cells([line])["x"] == V.NOT_RUN
+
+
+def test_a_group_missing_from_a_values_file_is_not_run(tmp_path):
+    _values(tmp_path, {"a": [1.0, 2.0]})
+    row = _row(comparison="trend", trend="increasing",
+               pdem={"extractor": "campaign", "file": "v.json", "quantity": "q",
+                     "groups": [{"case": "a"}, {"case": "b"}], "labels": ["a", "b"]})
+    assert V.evaluate(row, tmp_path).cell == V.NOT_RUN
+
+
+def _values(root, groups):
+    members = [{"name": f"{c}_{i}", "params": {"case": c, "seed": i}, "results": f"runs/x/{c}_{i}/results.h5",
+                "values": {"q": v}} for c, vals in groups.items() for i, v in enumerate(vals)]
+    (root / "v.json").write_text(json.dumps({"format": V.VALUES_FORMAT, "members": members}))
+
+
+def test_value_verdicts_follow_the_numbers(tmp_path):
+    _values(tmp_path, {"a": [9.0, 10.0, 11.0, 10.5, 9.5]})
+    pdem = {"extractor": "campaign", "file": "v.json", "quantity": "q", "select": {"case": "a"}}
+    assert V.evaluate(_row(pdem=pdem, seed=10.2), tmp_path).verdict == "agrees within scatter"
+    far = V.evaluate(_row(pdem=pdem, seed=30.0, explanation={"status": "tested", "text": "t"}), tmp_path)
+    assert far.verdict == "differs, explanation tested"
+    ranged = V.evaluate(_row(pdem=pdem, seed=30.0, seed_range=[5.0, 40.0]), tmp_path)
+    assert ranged.verdict == "agrees within scatter"
+    assert V.evaluate(_row(pdem=pdem, seed=30.0), tmp_path).verdict == "differs, explanation untested"
+
+
+def test_trend_verdicts_use_anova(tmp_path):
+    _values(tmp_path, {"a": [1.0, 1.1, 0.9, 1.05], "b": [2.0, 2.1, 1.9, 2.05], "c": [1.02, 0.98, 1.1, 0.95]})
+    def row(trend, groups):
+        return _row(comparison="trend", trend=trend, pdem={"extractor": "campaign", "file": "v.json", "quantity": "q",
+                                                           "groups": [{"case": g} for g in groups], "labels": groups})
+    assert V.evaluate(row("increasing", ["a", "b"]), tmp_path).verdict == "agrees within scatter"
+    assert V.evaluate(row("decreasing", ["a", "b"]), tmp_path).verdict.startswith("differs")
+    assert V.evaluate(row("equal", ["a", "c"]), tmp_path).verdict == "agrees within scatter"
+    assert V.evaluate(row("differ", ["a", "c"]), tmp_path).verdict.startswith("differs")
+
+
+def test_anova_from_summaries_is_scipys_one_way_anova():
+    rng = np.random.default_rng(3)
+    groups = [rng.normal(m, 1.0, n) for m, n in ((0.0, 5), (0.8, 7), (0.3, 4))]
+    samples = [V.sample_of(g) for g in groups]
+    assert V.anova(samples) == pytest.approx(stats.f_oneway(*groups).pvalue, rel=1e-9)
+
+
+@pytest.mark.parametrize("n, d2", [(2, 1.128), (5, 2.326), (10, 3.078)])
+def test_expected_range_is_the_tabulated_d2(n, d2):
+    assert V.expected_range(n) == pytest.approx(d2, abs=6e-4)
+
+
+def test_summary_samples_recover_the_t_interval():
+    s = V.sample_from_summary("x", 5, 1.0, std=0.1)
+    assert s.half == pytest.approx(stats.t.ppf(0.975, 4) * 0.1 / np.sqrt(5), rel=1e-12)
+    back = V.sample_from_summary("x", 5, 1.0, half=s.half)
+    assert back.std == pytest.approx(0.1, rel=1e-12)
+
+
+def test_bad_row_file_is_one_line_exit_2(tmp_path):
+    bad = tmp_path / "rows.toml"
+    bad.write_text('[[row]]\nid = "a"\ntitle = "t"\nwhere = "w"\nquote = "q"\nenglish = "e"\n'
+                   'comparison = "maybe"\ncampaign = "c"\ncost = "1"\n[row.pdem]\nextractor = "none"\n')
+    p = subprocess.run([sys.executable, "-m", "analysis", "validate", "--rows", str(bad), "--root", str(tmp_path),
+                        "--out", str(tmp_path / "t.md")], capture_output=True, text=True, cwd=ROOT)
+    assert p.returncode == 2
+    assert p.stderr.count("\n") == 1 and "comparison = 'maybe'" in p.stderr and "Traceback" not in p.stderr
+
+
+def test_cost_projection_is_steps_over_the_measured_rate():
+    p = V.project(steps_done=2000, wall_s=4.0, ranks=2, steps_needed=7.0e6)
+    assert p.wall_needed_s == pytest.approx(7.0e6 / 500.0)
+    assert p.core_hours == pytest.approx(2 * 7.0e6 / 500.0 / 3600.0)
+    with pytest.raises(V.ValidationError):
+        V.project(0, 1.0, 1, 10)
