@@ -504,9 +504,12 @@ def _made_by(row, res):
         parts.append(f"not run here yet; the committed fallback ({spec.get('note', 'an earlier campaign')}) is shown")
     if spec["extractor"] != "none":
         sources = sorted({src for s in (res.samples or []) for src in s.sources})
-        files = sources if sources and len(sources) <= 2 else [spec["file"]]
-        parts.append("files: " + ", ".join(f"`{f}`" for f in files)
-                     + (f" (+{len(sources) - 2} more)" if len(sources) > 2 else ""))
+        if sources:
+            files = sources if len(sources) <= 2 else [spec["file"]]
+            parts.append("files: " + ", ".join(f"`{f}`" for f in files)
+                         + (f" (+{len(sources) - 2} more)" if len(sources) > 2 else ""))
+        else:  # not run: the file it would write is named without a link (it does not exist yet)
+            parts.append(f"its values file once run: {spec['file']}")
         parts.append(f"extractor `{spec['extractor']}`" + (f" `{spec['quantity']}`" if "quantity" in spec else ""))
     parts.append(f"cost: {row['cost']}")
     n = min((s.n for s in res.samples), default=0) if res.samples else 0
