@@ -154,17 +154,18 @@ def box_end_gaps(sim, floor=0.0):
 
 def contact_force_samples(sim):
     """Forces of every real contact, each once, in key order, on rank 0 (None elsewhere):
-    ``sleeper_ballast`` |normal force| [N] of each sphere–box contact and ``sleeper_index``
-    (its box), ``ballast_ballast`` |total force| [N] of each sphere pair. Collective; a pair
+    ``sleeper_ballast`` |normal force| [N] of each sphere–box contact (axis-aligned or turning
+    boxes: a scene's sleepers are all of one kind) and ``sleeper_index`` (its box),
+    ``ballast_ballast`` |total force| [N] of each sphere pair. Collective; a pair
     held by two ranks (straddling a slab edge) is counted once, so the arrays do not depend
     on the rank count."""
     out = {}
-    for name, second in (("sphere_box", "index"), ("sphere_sphere", "gid2")):
+    for name, second in (("sphere_box", "index"), ("sphere_oriented_box", "index"), ("sphere_sphere", "gid2")):
         if sim.kind(name) is None:
             continue
         c = sim.contacts(name)
         key = np.stack([c["gid1"], c[second]], axis=1).astype(np.int64)
-        value = np.linalg.norm(c["normal_force"] if name == "sphere_box" else c["force"], axis=1)
+        value = np.linalg.norm(c["force"] if name == "sphere_sphere" else c["normal_force"], axis=1)
         keys, values = sim.comm.gather_rows(key), sim.comm.gather_rows(value)
         if sim.comm.rank == 0:
             _, first = np.unique(keys[:, 0] * (1 << 32) + keys[:, 1], return_index=True)  # sorted by key
@@ -172,9 +173,10 @@ def contact_force_samples(sim):
     if sim.comm.rank != 0:
         return None
     res = {}
-    if "sphere_box" in out:
-        res["sleeper_ballast"] = out["sphere_box"][1]
-        res["sleeper_index"] = out["sphere_box"][0][:, 1]
+    boxes = out.get("sphere_box", out.get("sphere_oriented_box"))
+    if boxes is not None:
+        res["sleeper_ballast"] = boxes[1]
+        res["sleeper_index"] = boxes[0][:, 1]
     if "sphere_sphere" in out:
         res["ballast_ballast"] = out["sphere_sphere"][1]
     return res
