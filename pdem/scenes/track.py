@@ -12,7 +12,12 @@ and units in `DEFAULTS`, `TRAFFIC_DEFAULTS`; SI) describes:
   ``rail_mass`` [kg/m] per rail) of ``sleeper_size`` = [width along x, length across y,
   height] [m], at x_k = (k + ½)·spacing, their base at z = ``bed_depth``; translations not in
   ``sleeper_blocked`` free (default: z only; a half model: x and z, as the thesis's slice);
-  boxes never rotate (`pdem.bodies.boxes`), which blocks the sleeper's rotations: a limitation.
+  by default they do not rotate. ``sleeper_rotation = true`` makes them turning boxes that tilt
+  (default blocked "xyZ": z and the tilts about x and y; a half model "yXZ": x, z and the tilt
+  about y, the only one its symmetry plane allows), with the inertia ``sleeper_inertia``
+  [kg m²] (3 principal moments or a tensor) or that of the homogeneous box plus the rails as
+  point masses at their seats (`sleeper_inertia`); the load acts at the rail seats
+  (`seat_offsets`: with the beam each rail's pad at its seat, which moves with the sleeper).
 - the bed: from the subgrade (wall z = 0, ``base_material``, soft: stands for the layers
   below) to the sleeper top z_top = bed_depth + sleeper height, over the whole track length
   L = sleepers·spacing between end walls x = 0 and x = L; the shoulders reach
@@ -53,7 +58,8 @@ the thesis's order for the track (compact the bed, then cut it and place the sle
 
 Results (`pdem.format.schema`, kind "track"): ``results.h5`` with /series (`TRACK_SERIES`), /track
 (settlement and ballast force of every sleeper per sample), /passages (peak and permanent
-settlement, gap under each sleeper; with the beam the peak load on each sleeper),
+settlement, gap under each sleeper; with the beam the peak load on each sleeper; turning sleepers:
+settlement of each end, tilts, the void under each end third, with the beam the load share),
 /forces/peak_passage_<p> and end_passage_<p> (contact force distributions, passages 1, every
 ``forces_every``-th and the last); ``preparation.h5`` and
 ``.png``; ``analysis/`` (`python -m analysis track`); ``summary.txt`` (stages, passages, wall
@@ -282,15 +288,26 @@ def sleeper_rails(c, t, train):
     return SleeperRails(beams, train, seats=seat_offsets(c) if c["sleeper_rotation"] else None)
 
 
-def check_pad_step(sim, t, rails):
+def check_pad_step(sim, t, rails, seats=None):
     """The pads act on the sleepers explicitly: the time step must resolve a sleeper on its
     ``rails`` pads (stiffness at most k each, `pdem.boundaries.rail_beam`): Δt <= sqrt(m / (rails
-    k)), half the leapfrog's limit for safety; else a one-line InputError naming the key."""
+    k)), half the leapfrog's limit for safety; turning sleepers (``seats``: the pads' points, box
+    axes [m]) also its rocking on them about every free tilt axis, Δt <= sqrt(I / (k Σ lever²));
+    else a one-line InputError naming the key."""
+    k = t["rail_pad_stiffness"]
     m = float(np.min(sim.boxes.mass))
-    limit = (m / (rails * t["rail_pad_stiffness"])) ** 0.5
+    limit = (m / (rails * k)) ** 0.5
+    what = f"a sleeper of {m:.4g} kg on {rails} pad(s) needs dt <= sqrt(m/(n k))"
+    for axis, lever in ((0, None if seats is None else seats[:, 1]), (1, None if seats is None else seats[:, 0])):
+        if lever is None or np.all(sim.boxes.blocked & (8 << axis)) or not np.any(lever):
+            continue
+        moment = float(np.min(sim.boxes.inertia[:, axis]))
+        rocking = (moment / (k * float(np.sum(lever ** 2)))) ** 0.5
+        if rocking < limit:
+            limit, what = rocking, (f"a sleeper of {moment:.4g} kg m^2 about {'xy'[axis]} rocking on its pads needs "
+                                    "dt <= sqrt(I/(k sum lever^2))")
     if sim.dt > limit:
-        raise InputError(f"traffic.rail_pad_stiffness = {t['rail_pad_stiffness']!r}: too stiff for the time step "
-                         f"{sim.dt:.3g} s (a sleeper of {m:.4g} kg on {rails} pad(s) needs dt <= sqrt(m/(n k)) = "
+        raise InputError(f"traffic.rail_pad_stiffness = {k!r}: too stiff for the time step {sim.dt:.3g} s ({what} = "
                          f"{limit:.3g} s)")
 
 
@@ -662,7 +679,7 @@ class TrackRun(PreparedRun):
         if self.rails is not None:
             # the rails laid on the sleepers (their seats, if the sleepers turn) where the traffic started
             self.rails.attach(sim.boxes, state["seat_reference"] if turning else tr.reference)
-            check_pad_step(sim, self.t, len(self.rails.beams))
+            check_pad_step(sim, self.t, len(self.rails.beams), self.rails.seats)
         self.writer = w = TrackWriter(self.results, sleeper_x(self.c), self.comm,
                                       restart_step=self.restart_step if resumed else None, passages_done=tr.p)
         self.loop.flush.append(w)
