@@ -23,7 +23,8 @@ import pytest
 from pdem.errors import InputError
 from pdem.format.groups import read_track
 from pdem.io.checkpoint import list_checkpoints, read_checkpoint
-from pdem.scenes.track import check, track_settings, traffic_settings
+from pdem.bodies.boxes import Boxes
+from pdem.scenes.track import check, check_pad_step, seat_offsets, track_settings, traffic_settings
 from pdem_cli import needs_mpiexec, run_pdem
 from test_track import DOC
 from test_track_beam import PREPARE, beam_scene
@@ -70,6 +71,26 @@ def test_bad_input_is_one_line(track, traffic, message):
     with pytest.raises(InputError) as err:
         traffic_settings(d, track_settings(d))
     assert str(err.value).startswith(message) and "\n" not in str(err.value), str(err.value)
+
+
+def test_the_time_step_must_resolve_the_rocking_on_the_pads():
+    """A whole sleeper on two pads k at its seats ±y_s: rocking about x at sqrt(2 k y_s²/I_x);
+    the check refuses a step above sqrt(I_x/(2 k y_s²)) that sqrt(m/(2 k)) alone would let pass."""
+    class Sim:
+        dt = 1e-3
+        boxes = Boxes()
+
+    c = track_settings(doc())
+    seats = seat_offsets(c)
+    Sim.boxes.add((0.0, 0.0, 0.0), (0.15, 1.3, 0.1), 0, 500.0, blocked="xyZ", inertia=[50.0, 50.0, 50.0])
+    k = 1.0e8
+    rocking = (50.0 / (k * 2 * seats[0, 1] ** 2)) ** 0.5
+    assert rocking < Sim.dt < (500.0 / (2 * k)) ** 0.5  # the translation alone would pass
+    with pytest.raises(InputError) as err:
+        check_pad_step(Sim, {"rail_pad_stiffness": k}, 2, seats)
+    assert f"about x rocking on its pads needs dt <= sqrt(I/(k sum lever^2)) = {rocking:.3g} s" in str(err.value)
+    Sim.dt = 0.99 * rocking
+    check_pad_step(Sim, {"rail_pad_stiffness": k}, 2, seats)
 
 
 @needs_mpiexec
