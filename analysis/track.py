@@ -413,8 +413,12 @@ def _along_and_map(fig, ax, ax_map, rec, values, ylabel, title, map_label, map_t
     ax.set(xlabel="position along the track x [m]", ylabel=ylabel, title=title)
     ax.grid(True, alpha=0.3)
     ax.legend(fontsize="x-small")
+    signed = {}
+    if cmap == "coolwarm":  # a signed quantity: zero in the middle of the colour map
+        lim = float(np.max(np.abs(values))) or 1.0
+        signed = {"vmin": -lim, "vmax": lim}
     mesh = ax_map.pcolormesh(_edges(np.arange(rec.n_sleepers, dtype=float)), _edges(passages.astype(float)),
-                             values, cmap=cmap, shading="flat")
+                             values, cmap=cmap, shading="flat", **signed)
     fig.colorbar(mesh, ax=ax_map, label=map_label)
     ax_map.xaxis.set_major_locator(MaxNLocator(integer=True))
     ax_map.yaxis.set_major_locator(MaxNLocator(integer=True))
