@@ -183,14 +183,15 @@ def track_settings(doc):
     c["body_mass"] = share * c["sleeper_mass"] + (1 if c["half"] else 2) * c["rail_mass"] * c["spacing"]
     rotation = c["sleeper_rotation"] = boolean("track.sleeper_rotation", c.get("sleeper_rotation", False))
     blocked = c.get("sleeper_blocked", TURNING[c["half"]] if rotation else "yXYZ" if c["half"] else "xyXYZ")
-    need = set("Z") | (set("X") if c["half"] else set()) if rotation else set("XYZ")
-    if not isinstance(blocked, str) or set(blocked) - set("xyzXYZ") or not need <= set(blocked):
+    if rotation:
+        need = "XZ" if c["half"] else "Z"
+        why = "turning sleepers: the vertical axis blocked" + (
+            "; a half model's symmetry plane y = 0 allows only the tilt about y" if c["half"] else "")
+    else:
+        need, why = "XYZ", "sleepers do not rotate; sleeper_rotation = true lets them tilt"
+    if not isinstance(blocked, str) or set(blocked) - set("xyzXYZ") or not set(need) <= set(blocked):
         raise InputError(f"track.sleeper_blocked = {blocked!r}: must be letters from 'xyzXYZ' including "
-                         f"{', '.join(sorted(need))} " + (
-                             ("(turning sleepers: the vertical axis blocked" + (
-                                 "; a half model's symmetry plane y = 0 allows only the tilt about y)" if c["half"]
-                                 else ")")) if rotation else "(sleepers do not rotate; sleeper_rotation = true "
-                             "lets them tilt)"))
+                         f"{', '.join(need)} ({why})")
     if c["half"] and "y" not in blocked:
         raise InputError(f"track.sleeper_blocked = {blocked!r}: a half model needs 'y' (no translation across the "
                          "symmetry plane)")
