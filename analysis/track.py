@@ -20,6 +20,11 @@ the series (for the scene driver and for checks). Definitions:
   gap exceeds `HANGING_GAP`;
 - peak load: the largest load of the rail on a sleeper during the passage [N] (written when
   the rail is a beam: the load share the beam and the bed give each sleeper);
+- turning sleepers (``[track] sleeper_rotation``): tilt about x and y at the end of the passage
+  [rad; shown mrad], the settlement of each end of the sleeper body along its y axis (lo, hi)
+  [m], the void under each end third (lo, hi) [m]; with the beam the load share: the largest
+  load of the rails on the sleeper in the passage less its load at rest, per wheel load on its
+  rail seats [-] (docs/track.md "Turning sleepers");
 - settlement against the number of passages N: the mean permanent settlement after passage N
   fitted (least squares, `scipy.optimize.curve_fit`) by the two forms used for ballast,
   S = a + b·log10 N [m] and S = a·N^b [m, -], only with at least `MIN_FIT_PASSAGES` passages;
@@ -46,7 +51,7 @@ from pdem.format.read import results_file
 HANGING_GAP = 1e-4   # [m] a gap above this (0.1 mm) counts as a hanging sleeper
 MIN_FIT_PASSAGES = 5  # passages needed before settlement is fitted against N
 MAX_LINES = 12       # passages drawn as lines (evenly chosen, always the first and last)
-MM, KN = 1e3, 1e-3
+MM, KN, MRAD = 1e3, 1e-3, 1e3
 QUANTILES = (0.5, 0.95, 0.99)
 
 
@@ -203,6 +208,11 @@ def analyse_track(record: TrackRecord, hanging_gap: float = HANGING_GAP) -> Trac
                      hanging=np.count_nonzero(p["gap"] > hanging_gap, axis=1).astype(float))
     if "load_peak" in p:
         table.update(mean_load_peak=p["load_peak"].mean(axis=1), max_load_peak=p["load_peak"].max(axis=1))
+    if "tilt_x" in p:  # turning sleepers
+        table.update(max_tilt_x=np.abs(p["tilt_x"]).max(axis=1), max_tilt_y=np.abs(p["tilt_y"]).max(axis=1),
+                     max_end_gap=np.maximum(p["gap_lo"], p["gap_hi"]).max(axis=1))
+    if "load_share" in p:
+        table.update(max_load_share=p["load_share"].max(axis=1))
     forces = {}
     for label, rec in record.forces.items():
         forces[label] = {kind: force_statistics(getattr(rec, kind))
@@ -229,11 +239,17 @@ PASSAGE_COLUMNS = (  # name, header, scale SI -> shown, units shown, format
     ("hanging", "hanging", 1.0, "-", "{:8.0f}"),
     ("mean_load_peak", "Fpeak_mean", KN, "kN", "{:10.4f}"),
     ("max_load_peak", "Fpeak_max", KN, "kN", "{:10.4f}"),
+    ("max_tilt_x", "|tilt_x|max", MRAD, "mrad", "{:11.4f}"),
+    ("max_tilt_y", "|tilt_y|max", MRAD, "mrad", "{:11.4f}"),
+    ("max_end_gap", "endgap_max", MM, "mm", "{:10.4f}"),
+    ("max_load_share", "share_max", 1.0, "-", "{:9.4f}"),
 )
 SI_UNITS = {"passage": "-", "t_start": "s", "t_end": "s", "mean_permanent": "m",
             "min_permanent": "m", "max_permanent": "m", "increment": "m", "differential": "m",
             "mean_peak": "m", "max_peak": "m", "mean_gap": "m", "max_gap": "m", "hanging": "-",
-            "mean_load_peak": "N", "max_load_peak": "N"}
+            "mean_load_peak": "N", "max_load_peak": "N", "max_tilt_x": "rad", "max_tilt_y": "rad",
+            "max_end_gap": "m", "max_load_share": "-"}
+TURNING = ("settlement_lo", "settlement_hi", "tilt_x", "tilt_y", "gap_lo", "gap_hi", "load_share")
 
 
 def track_lines(result: TrackAnalysis) -> list[str]:
@@ -275,6 +291,7 @@ def track_lines(result: TrackAnalysis) -> list[str]:
         if result.has_gap:
             row += f" {p['gap'][-1, k] * MM:>9.4f}"
         lines.append(row)
+    lines += turning_lines(result)
     lines += ["", *fit_lines(result.fits)]
     lines += ["", "contact force distributions (quantiles by linear interpolation):"]
     if not result.forces:
@@ -291,6 +308,28 @@ def track_lines(result: TrackAnalysis) -> list[str]:
                              f"{s.std * KN:>10.4f} {s.median * KN:>10.4f} {s.q95 * KN:>10.4f} "
                              f"{s.q99 * KN:>10.4f} {s.maximum * KN:>10.4f} "
                              f"{s.max_over_mean:>9.3f}")
+    return lines
+
+
+def turning_lines(result: TrackAnalysis) -> list[str]:
+    """Turning sleepers: per sleeper after the last passage, the tilts, the ends' settlement, the
+    voids under the end thirds and the largest load share over the passages ([] without them)."""
+    rec, p = result.record, result.record.passages
+    if "tilt_x" not in p:
+        return []
+    last, share = len(p["passage"]), "load_share" in p
+    lines = ["", f"turning sleepers after passage {last} (lo, hi: the ends of the sleeper body along its y axis; "
+                 "gaps under its end thirds" + ("; share: the largest load share of a wheel over the passages)"
+                                                if share else ")"),
+             f"{'sleeper':>8} {'tilt_x':>9} {'tilt_y':>9} {'S_lo':>9} {'S_hi':>9} {'gap_lo':>9} {'gap_hi':>9}"
+             + (f" {'share':>9}" if share else ""),
+             f"{'[-]':>8} {'[mrad]':>9} {'[mrad]':>9} {'[mm]':>9} {'[mm]':>9} {'[mm]':>9} {'[mm]':>9}"
+             + (f" {'[-]':>9}" if share else "")]
+    for k in range(rec.n_sleepers):
+        lines.append(f"{k:>8d} {p['tilt_x'][-1, k] * MRAD:>9.4f} {p['tilt_y'][-1, k] * MRAD:>9.4f} "
+                     f"{p['settlement_lo'][-1, k] * MM:>9.4f} {p['settlement_hi'][-1, k] * MM:>9.4f} "
+                     f"{p['gap_lo'][-1, k] * MM:>9.4f} {p['gap_hi'][-1, k] * MM:>9.4f}"
+                     + (f" {p['load_share'][:, k].max():>9.4f}" if share else ""))
     return lines
 
 
@@ -321,13 +360,16 @@ def track_dict(result: TrackAnalysis) -> dict:
         "hanging_gap": result.hanging_gap,
         "units": {**{k: v for k, v in SI_UNITS.items() if k in result.per_passage},
                   "sleeper_x": "m", "settlement_permanent": "m", "settlement_peak": "m",
-                  "gap": "m", "forces": "N", "hanging_gap": "m"},
+                  "gap": "m", "forces": "N", "hanging_gap": "m",
+                  **{name: "rad" if name.startswith("tilt") else "-" if name == "load_share" else "m"
+                     for name in TURNING if name in rec.passages}},
         "passages": {k: _floats(v) for k, v in result.per_passage.items()},
         "settlement_permanent": [_floats(row) for row in rec.passages["settlement_permanent"]],
         "settlement_peak": [_floats(row) for row in rec.passages["settlement_peak"]],
         "gap": ([_floats(row) for row in rec.passages["gap"]] if result.has_gap else None),
         "load_peak": ([_floats(row) for row in rec.passages["load_peak"]]
                       if "load_peak" in rec.passages else None),
+        **{name: [_floats(row) for row in rec.passages[name]] for name in TURNING if name in rec.passages},
         "fits": {"of": "mean permanent settlement [m] against the passage number N",
                  "forms": {k: {n: _json(v) if n != "failed" else v for n, v in f.items()}
                            for k, f in result.fits.forms.items()}, "reason": result.fits.reason},
@@ -340,34 +382,86 @@ def track_dict(result: TrackAnalysis) -> dict:
 def plot_settlement_map(result: TrackAnalysis, path) -> Path:
     """Permanent settlement along the track per passage (lines) and passage x sleeper map."""
     from matplotlib.figure import Figure
-    from matplotlib.ticker import MaxNLocator
 
     from .figures import save
 
     rec = result.record
-    perm = rec.passages["settlement_permanent"] * MM
     passages = rec.passages["passage"]
     fig = Figure(figsize=(12.0, 4.8), layout="constrained")
     ax, ax_map = fig.subplots(1, 2)
-    chosen = _chosen(len(passages))
-    colours = _colours(len(chosen))
-    for i, colour in zip(chosen, colours):
-        ax.plot(rec.sleeper_x, perm[i], "o-", ms=3, color=colour,
-                label=f"after passage {passages[i]:.0f}")
+    _along_and_map(fig, ax, ax_map, rec, rec.passages["settlement_permanent"] * MM,
+                   "sleeper settlement [mm] (down)", "Permanent settlement along the track",
+                   "permanent settlement [mm]", "Settlement: passage × sleeper", down=True)
     ax.plot(rec.sleeper_x, rec.passages["settlement_peak"][-1] * MM, "^--", ms=3, color="C3",
             lw=0.8, label=f"peak in passage {passages[-1]:.0f}")
-    ax.invert_yaxis()
-    ax.set(xlabel="position along the track x [m]", ylabel="sleeper settlement [mm] (down)",
-           title="Permanent settlement along the track")
+    ax.legend(fontsize="x-small")
+    return save(fig, path)
+
+
+def _along_and_map(fig, ax, ax_map, rec, values, ylabel, title, map_label, map_title, down=False,
+                   cmap="viridis"):
+    """``values`` [n_passages, n_sleepers] along the track after chosen passages (lines on
+    ``ax``) and as a passage x sleeper map (``ax_map``)."""
+    from matplotlib.ticker import MaxNLocator
+
+    passages = rec.passages["passage"]
+    chosen = _chosen(len(passages))
+    for i, colour in zip(chosen, _colours(len(chosen))):
+        ax.plot(rec.sleeper_x, values[i], "o-", ms=3, color=colour, label=f"after passage {passages[i]:.0f}")
+    if down:
+        ax.invert_yaxis()
+    ax.set(xlabel="position along the track x [m]", ylabel=ylabel, title=title)
     ax.grid(True, alpha=0.3)
     ax.legend(fontsize="x-small")
-    mesh = ax_map.pcolormesh(_edges(np.arange(rec.n_sleepers, dtype=float)),
-                             _edges(passages.astype(float)), perm, cmap="viridis",
-                             shading="flat")
-    fig.colorbar(mesh, ax=ax_map, label="permanent settlement [mm]")
+    signed = {}
+    if cmap == "coolwarm":  # a signed quantity: zero in the middle of the colour map
+        lim = float(np.max(np.abs(values))) or 1.0
+        signed = {"vmin": -lim, "vmax": lim}
+    mesh = ax_map.pcolormesh(_edges(np.arange(rec.n_sleepers, dtype=float)), _edges(passages.astype(float)),
+                             values, cmap=cmap, shading="flat", **signed)
+    fig.colorbar(mesh, ax=ax_map, label=map_label)
     ax_map.xaxis.set_major_locator(MaxNLocator(integer=True))
     ax_map.yaxis.set_major_locator(MaxNLocator(integer=True))
-    ax_map.set(xlabel="sleeper [-]", ylabel="passage [-]", title="Settlement: passage × sleeper")
+    ax_map.set(xlabel="sleeper [-]", ylabel="passage [-]", title=map_title)
+
+
+TURNING_PLOTS = (  # /passages table, scale, label, down, colour map: turning sleepers (track_tilt.png)
+    ("tilt_x", MRAD, "tilt about x (across the track) [mrad]", False, "coolwarm"),
+    ("tilt_y", MRAD, "tilt about y (along the track) [mrad]", False, "coolwarm"),
+    ("settlement_lo", MM, "settlement of the lo end [mm] (down)", True, "viridis"),
+    ("settlement_hi", MM, "settlement of the hi end [mm] (down)", True, "viridis"),
+    ("gap_lo", MM, "void under the lo end third [mm]", False, "magma"),
+    ("gap_hi", MM, "void under the hi end third [mm]", False, "magma"),
+)
+
+
+def plot_tilt(result: TrackAnalysis, path) -> Path:
+    """Turning sleepers: tilt about x and y, settlement of each end and the void under each end
+    third, after every chosen passage along the track (lines) and as passage x sleeper maps."""
+    from matplotlib.figure import Figure
+
+    from .figures import save
+
+    rec = result.record
+    fig = Figure(figsize=(12.0, 3.4 * len(TURNING_PLOTS)), layout="constrained")
+    for (name, scale, label, down, cmap), (ax, ax_map) in zip(TURNING_PLOTS, fig.subplots(len(TURNING_PLOTS), 2)):
+        _along_and_map(fig, ax, ax_map, rec, rec.passages[name] * scale, label, label.split(" [")[0],
+                       label, f"{name}: passage × sleeper", down=down, cmap=cmap)
+    return save(fig, path)
+
+
+def plot_shares(result: TrackAnalysis, path) -> Path:
+    """The load share of every sleeper per passage (the beam): along the track and as a map."""
+    from matplotlib.figure import Figure
+
+    from .figures import save
+
+    rec = result.record
+    fig = Figure(figsize=(12.0, 4.8), layout="constrained")
+    ax, ax_map = fig.subplots(1, 2)
+    _along_and_map(fig, ax, ax_map, rec, rec.passages["load_share"], "load share of a wheel [-]",
+                   "Load share per sleeper (the rail as a beam)", "load share [-]", "Load share: passage × sleeper",
+                   cmap="magma")
     return save(fig, path)
 
 
@@ -532,6 +626,10 @@ def run_track(run_or_file, out=None, hanging_gap=HANGING_GAP) -> list[Path]:
         written.append(plot_voids(result, out / "track_voids.png"))
     if result.forces:
         written.append(plot_forces(result, out / "track_forces.png"))
+    if "tilt_x" in result.record.passages:
+        written.append(plot_tilt(result, out / "track_tilt.png"))
+    if "load_share" in result.record.passages:
+        written.append(plot_shares(result, out / "track_shares.png"))
     (out / "track.txt").write_text("\n".join(track_lines(result)) + "\n")
     (out / "track.json").write_text(json.dumps(track_dict(result), indent=1,
                                                allow_nan=False) + "\n")
@@ -543,8 +641,8 @@ def add_parser(sub) -> None:
     p = sub.add_parser(
         "track", help="track section: settlement per sleeper and passage, voids, forces",
         description="Write track_settlement.png, track_passages.png, track_sleepers.png, track_voids.png (with "
-                    "gap data), track_forces.png (with /forces records), track.txt and "
-                    "track.json for a track run.")
+                    "gap data), track_forces.png (with /forces records), track_tilt.png and track_shares.png (turning "
+                    "sleepers, the beam's load shares), track.txt and track.json for a track run.")
     p.add_argument("results", type=Path, metavar="RUN",
                    help="run directory (with results.h5) or results file")
     p.add_argument("--out", type=Path, metavar="DIR",

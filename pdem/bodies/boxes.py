@@ -18,12 +18,13 @@ principal moments I [kg·m²] (a solid cuboid, m(b² + c²)/12 … with a, b, c 
 a given symmetric positive definite tensor in the box's axes, diagonalised once: ``axes`` V, its
 principal directions in the box frame). Each step ``contact_torque`` (the moment about the box
 centre of the sphere contacts' forces at their contact points [N·m], an exact sum over all ranks
-like ``contact_force``) plus the load's moment (the load acts at ``load_point``, box axes [m])
-turns it by Yade's aspherical leapfrog (`pdem.bodies.clumps.aspherical_rotate`, Cundall-damped
-by the box's λ_D as the clumps are); torque and L about blocked global axes are held at zero (exact
-when the free rotation is about a principal axis, e.g. one free tilt). Its spheres use the contact
-kind ``sphere_oriented_box`` (`pdem.contact.geometry.SphereOrientedBox`: the box contact in the
-box's axes, the box's velocity at the contact point); axis-aligned boxes keep ``sphere_box``.
+like ``contact_force``) plus the load's moment (the load acts at ``load_point``, box axes [m], or
+a program gives its own moment, `Boxes.load_moment`) turns it by Yade's aspherical leapfrog
+(`pdem.bodies.clumps.aspherical_rotate`, Cundall-damped by the box's λ_D as the clumps are);
+torque and L about blocked global axes are held at zero (exact when the free rotation is about a
+principal axis, e.g. one free tilt). Its spheres use the contact kind ``sphere_oriented_box``
+(`pdem.contact.geometry.SphereOrientedBox`: the box contact in the box's axes, the box's velocity
+at the contact point); axis-aligned boxes keep ``sphere_box``.
 Checkpoints carry q, L, ω and R; snapshots show the box axis-aligned (orientation not written).
 A box with member spheres cannot rotate (refused).
 
@@ -294,6 +295,18 @@ class Boxes:
                 out[b] = load.value(t) * self.direction[b]
         return out
 
+    def load_moment(self, t):
+        """[n, 3] moment of the loads at t about the box centres [N·m] (global axes): the load at
+        ``load_point``, or, for a program with ``moment(t)`` that answers (not None), that moment
+        (e.g. the rails' pads at their seats, `pdem.boundaries.rail_beam.SleeperRails.moment`)."""
+        out = np.cross(np.einsum("bak,bk->ba", self.rotation, self.load_point), self.load_force)
+        for b, load in enumerate(self.loads):
+            own = getattr(load, "moment", None)
+            moment = None if own is None else own(t)
+            if moment is not None:
+                out[b] = moment
+        return out
+
     def integrate(self, t, dt, gravity):
         """Leapfrog of every box from ``contact_force`` and the load at t; returns the largest
         displacement [m] of this step (for the neighbour-list rebuild criterion)."""
@@ -301,8 +314,7 @@ class Boxes:
         moved = leapfrog_boxes(self.kernel_f, self.blocked, self.damping, self.mass, self.contact_force,
                                self.load_force, np.asarray(gravity, np.float64), dt)
         if self.oriented_count():
-            torque = self.contact_torque + np.cross(np.einsum("bak,bk->ba", self.rotation, self.load_point),
-                                                    self.load_force)
+            torque = self.contact_torque + self.load_moment(t)
             moved += rotate_boxes(self.kernel_f, self.blocked, self.damping, self.ori, self.angmom, self.inertia,
                                   self.axes, torque, dt)
         self.place_members()

@@ -234,6 +234,14 @@ class SleeperLoad:
             return self.rail.load(t, self.x)
         return self.train.load(t, self.x, self.wheels)
 
+    def moment(self, t):
+        """The moment [N·m] of the rail's pads about the sleeper's centre if the rail follows the
+        sleeper's rotation (`pdem.boundaries.rail_beam.SleeperRails.moment`), else None (the load
+        acts at the box's ``load_point``)."""
+        if self.rail is None or not getattr(self.rail, "turning", False):
+            return None
+        return self.rail.moment(t, self.x)
+
     def spec(self):
         return {**self.train.spec(), "sleeper_x": self.x, "wheels": self.wheels,
                 **({"rail": self.rail.spec()} if self.rail is not None else {})}

@@ -252,20 +252,52 @@ class SleeperRails:
     instant as their contact forces) and the wheels at t; computed once for every sleeper per
     (t, positions) and summed over the rails in order, so every rank (the boxes are replicated)
     gets the same bits. The rails' weight enters through the pads (the sleepers' mass then
-    leaves it out)."""
+    leaves it out).
 
-    def __init__(self, beams, train):
+    Turning sleepers (``seats``: rail r's seat on every sleeper, box axes from the centre [m]):
+    the seats move with the sleeper, translation plus rotation × lever arm, u_rj = (c_j + R_j
+    s_r)_z − (its height at the start), and each pad acts at its seat: the sleeper gets the
+    sum of the pads' forces and their moment Σ_r (R_j s_r) × (0, 0, F_rj) (`moment`)."""
+
+    def __init__(self, beams, train, seats=None):
         self.beams = list(beams)
         self.train = train
         self.index = {float(x): j for j, x in enumerate(self.beams[0].seats_x)}
         self.boxes, self.reference = None, None
         self._key, self._load = None, None
+        # turning sleepers: every rail's seat on the sleeper, box axes from its centre [m] (one per beam)
+        self.seats = None if seats is None else np.asarray(seats, float).reshape(len(self.beams), 3)
+        self._moment = None
+
+    @property
+    def turning(self):
+        """True if the seats follow the sleepers' rotation (``seats`` given)."""
+        return self.seats is not None
 
     def attach(self, boxes, reference):
         """Couple to ``boxes`` (their rows are the sleepers in seat order) with the sleeper
-        centre heights ``reference`` [m] at which the rails were laid."""
+        centre heights ``reference`` [m] at which the rails were laid; with ``seats``, the seat
+        heights [n_rails, n_sleepers] [m] there (`seat_heights`)."""
         self.boxes = boxes
         self.reference = np.asarray(reference, float).copy()
+
+    def seat_points(self, centres, rotations):
+        """[n_rails, n_sleepers, 3] the seats' positions [m]: centre + R s (R box → global)."""
+        return np.asarray(centres)[None] + np.einsum("jak,rk->rja", np.asarray(rotations), self.seats)
+
+    def seat_heights(self, centres, rotations):
+        """[n_rails, n_sleepers] the seats' heights z [m] (the reference of `attach` when turning)."""
+        return self.seat_points(centres, rotations)[:, :, 2]
+
+    def turning_forces(self, t, centres, rotations):
+        """(force [N] (z up) of every rail's pad on each sleeper [n_rails, n_sleepers], seat points
+        [n_rails, n_sleepers, 3] [m]) for the sleepers at ``centres`` turned by ``rotations``: rail
+        r's seat on sleeper j moves by u_rj = (c_j + R_j s_r)_z − reference_rj."""
+        wheels = self.train.axle_positions(t)
+        q = [self.train.axle_load / 2.0] * len(wheels)
+        points = self.seat_points(centres, rotations)
+        u = points[:, :, 2] - self.reference.reshape(len(self.beams), -1)
+        return np.stack([beam.seat_forces(u[r], wheels, q) for r, beam in enumerate(self.beams)]), points
 
     def pad_forces(self, t, z):
         """Force [N] (z up) of all rails' pads on each sleeper for sleeper centre heights z [m]
@@ -279,10 +311,35 @@ class SleeperRails:
         return total
 
     def load(self, t, x):
+        if self.turning:
+            return float(self._turning(t)[0][self.index[float(x)]])
         z = self.boxes.center[:, 2]
         if self._key is None or self._key[0] != t or not np.array_equal(self._key[1], z):
             self._key, self._load = (t, z.copy()), -self.pad_forces(t, z)
         return float(self._load[self.index[float(x)]])
+
+    def moment(self, t, x):
+        """The pads' moment [N·m] (global axes) about the centre of the sleeper at x: Σ_r (R s_r)
+        × (0, 0, F_r), with the load of `load` at the same instant and positions."""
+        return self._turning(t)[1][self.index[float(x)]]
+
+    def _turning(self, t):
+        """(downward load [n], moment [n, 3]) on the turning sleepers, once per (t, positions,
+        rotations); the rails summed in order."""
+        bx = self.boxes
+        c, rot = bx.center, bx.rotation
+        if self._key is None or self._key[0] != t or not np.array_equal(self._key[1], c) \
+                or not np.array_equal(self._key[2], rot):
+            forces, points = self.turning_forces(t, c, rot)
+            arm = points - c[None]
+            total = np.zeros(forces.shape[1])
+            moment = np.zeros((forces.shape[1], 3))
+            for r in range(len(self.beams)):
+                total = total + forces[r]
+                moment[:, 0] += arm[r, :, 1] * forces[r]
+                moment[:, 1] -= arm[r, :, 0] * forces[r]
+            self._key, self._load, self._moment = (t, c.copy(), rot.copy()), -total, moment
+        return self._load, self._moment
 
     @property
     def weight(self):
@@ -293,4 +350,4 @@ class SleeperRails:
         b = self.beams[0]
         return {"type": "rail_beam", "rails": len(self.beams), "bending_stiffness": b.ei, "mass": b.mass,
                 "pad_stiffness": b.pad_stiffness.tolist(), "x_start": b.x_start, "x_end": b.x_end,
-                "nodes": len(b.nodes_x)}
+                "nodes": len(b.nodes_x), **({"seats": self.seats.tolist()} if self.turning else {})}

@@ -118,19 +118,54 @@ def box_gaps(sim, floor=0.0):
     return np.where(np.isfinite(top), np.maximum(base - top, 0.0), base - floor)
 
 
+def box_end_gaps(sim, floor=0.0):
+    """[n_boxes, 2] void under the two end thirds of each rigid box along its own y axis [m]
+    (collective): lo is the third at local y <= −h_y/3, hi at y >= h_y/3 (a whole sleeper's outer
+    thirds; a half model's body: the third at the track's centre line and the outer third). In
+    the box's axes (it may be turned: p = Rᵀ(x − c) for a sphere centre x), from the base face
+    (p_z = −h_z) down to the top p_z + r of the highest sphere whose centre lies under that third
+    of the footprint (|p_x| <= h_x) and below the base; 0 where the box rests on (or presses
+    into) the ballast; if no sphere is under it, the height above ``floor`` of the third's base
+    centre. A max reduction: the same bits on any rank count."""
+    bx = sim.boxes
+    if bx is None:
+        return np.zeros((0, 2))
+    p = sim.particles
+    nl = p.n_local
+    pos, r = p.pos[:nl], p.radius[:nl]
+    top = np.full((len(bx), 2), -np.inf)
+    for k in range(len(bx)):
+        h = bx.half[k]
+        local = (pos - bx.center[k]) @ bx.rotation[k]  # Rᵀ (x − c), row by row
+        below = (np.abs(local[:, 0]) <= h[0]) & (local[:, 2] < -h[2])
+        for e, third in enumerate((local[:, 1] <= -h[1] / 3.0, local[:, 1] >= h[1] / 3.0)):
+            under = below & third & (np.abs(local[:, 1]) <= h[1])
+            if under.any():
+                top[k, e] = float(np.max(local[under, 2] + r[under]))
+    top = np.asarray(sim.comm.allreduce_max(top.ravel()), np.float64).reshape(len(bx), 2)
+    base = -bx.half[:, 2][:, None]
+    empty = np.zeros((len(bx), 2))
+    for k in range(len(bx)):
+        h = bx.half[k]
+        for e, sign in enumerate((-1.0, 1.0)):
+            empty[k, e] = bx.center[k, 2] + bx.rotation[k, 2] @ np.array([0.0, sign * 2.0 * h[1] / 3.0, -h[2]]) - floor
+    return np.where(np.isfinite(top), np.maximum(base - top, 0.0), empty)
+
+
 def contact_force_samples(sim):
     """Forces of every real contact, each once, in key order, on rank 0 (None elsewhere):
-    ``sleeper_ballast`` |normal force| [N] of each sphere–box contact and ``sleeper_index``
-    (its box), ``ballast_ballast`` |total force| [N] of each sphere pair. Collective; a pair
+    ``sleeper_ballast`` |normal force| [N] of each sphere–box contact (axis-aligned or turning
+    boxes: a scene's sleepers are all of one kind) and ``sleeper_index`` (its box),
+    ``ballast_ballast`` |total force| [N] of each sphere pair. Collective; a pair
     held by two ranks (straddling a slab edge) is counted once, so the arrays do not depend
     on the rank count."""
     out = {}
-    for name, second in (("sphere_box", "index"), ("sphere_sphere", "gid2")):
+    for name, second in (("sphere_box", "index"), ("sphere_oriented_box", "index"), ("sphere_sphere", "gid2")):
         if sim.kind(name) is None:
             continue
         c = sim.contacts(name)
         key = np.stack([c["gid1"], c[second]], axis=1).astype(np.int64)
-        value = np.linalg.norm(c["normal_force"] if name == "sphere_box" else c["force"], axis=1)
+        value = np.linalg.norm(c["force"] if name == "sphere_sphere" else c["normal_force"], axis=1)
         keys, values = sim.comm.gather_rows(key), sim.comm.gather_rows(value)
         if sim.comm.rank == 0:
             _, first = np.unique(keys[:, 0] * (1 << 32) + keys[:, 1], return_index=True)  # sorted by key
@@ -138,9 +173,10 @@ def contact_force_samples(sim):
     if sim.comm.rank != 0:
         return None
     res = {}
-    if "sphere_box" in out:
-        res["sleeper_ballast"] = out["sphere_box"][1]
-        res["sleeper_index"] = out["sphere_box"][0][:, 1]
+    boxes = out.get("sphere_box", out.get("sphere_oriented_box"))
+    if boxes is not None:
+        res["sleeper_ballast"] = boxes[1]
+        res["sleeper_index"] = boxes[0][:, 1]
     if "sphere_sphere" in out:
         res["ballast_ballast"] = out["sphere_sphere"][1]
     return res

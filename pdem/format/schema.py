@@ -277,7 +277,13 @@ TRACK = "track"
 TRACK_UNITS = {"sleeper_x": "m", "settlement": "m", "force": "N"}
 PASSAGES = "passages"
 PASSAGE_UNITS = {"passage": "-", "t_start": "s", "t_end": "s", "settlement_peak": "m",
-                 "settlement_permanent": "m", "gap": "m", "load_peak": "N"}
+                 "settlement_permanent": "m", "gap": "m", "load_peak": "N",
+                 # turning sleepers (track.sleeper_rotation): at the end of the passage, per end of the
+                 # sleeper body along its own y axis (lo, hi), and the beam's load share in the passage
+                 "settlement_lo": "m", "settlement_hi": "m", "tilt_x": "rad", "tilt_y": "rad",
+                 "gap_lo": "m", "gap_hi": "m", "load_share": "-"}
+PASSAGE_OPTIONAL = ("gap", "load_peak", "settlement_lo", "settlement_hi", "tilt_x", "tilt_y", "gap_lo", "gap_hi",
+                    "load_share")
 PASSAGE_REQUIRED = ("passage", "t_start", "t_end", "settlement_peak", "settlement_permanent")
 
 FORCES = "forces"
@@ -433,7 +439,7 @@ def append_track_rows(target, settlement, force) -> int:
 
 
 def append_passages(target, t_start, t_end, settlement_peak, settlement_permanent,
-                    gap=None, load_peak=None) -> int:
+                    gap=None, load_peak=None, **more) -> int:
     """Append rows (passages) to the ``/passages`` table, creating it on the first call.
 
     Parameters
@@ -445,6 +451,10 @@ def append_passages(target, t_start, t_end, settlement_peak, settlement_permanen
         Void under each sleeper; either always given or never.
     load_peak : array [n, n_sleepers] (or [n_sleepers]) [N], optional
         Largest rail load on each sleeper in the passage; either always given or never.
+    **more : array [n, n_sleepers] (or [n_sleepers])
+        Any other table of `PASSAGE_OPTIONAL` (turning sleepers: ``settlement_lo``,
+        ``settlement_hi`` [m], ``tilt_x``, ``tilt_y`` [rad], ``gap_lo``, ``gap_hi`` [m],
+        ``load_share`` [-]); each either always given or never.
 
     Returns
     -------
@@ -464,6 +474,11 @@ def append_passages(target, t_start, t_end, settlement_peak, settlement_permanen
             tables["gap"] = gap
         if load_peak is not None:
             tables["load_peak"] = load_peak
+        for name, value in more.items():
+            if name not in PASSAGE_OPTIONAL:
+                raise ValueError(f"/{PASSAGES}/{name}: not a passage table ({', '.join(PASSAGE_OPTIONAL)})")
+            if value is not None:
+                tables[name] = value
         rows = {k: _rows(v, k, n_sleepers) for k, v in tables.items()}
         if any(len(v) != len(t0) for v in rows.values()):
             raise ValueError("passage tables must have one row per t_start")
@@ -477,8 +492,8 @@ def append_passages(target, t_start, t_end, settlement_peak, settlement_permanen
                 ds = g.create_dataset(name, shape=(0, n_sleepers), maxshape=(None, n_sleepers),
                                       dtype=np.float64)
                 ds.attrs["units"] = PASSAGE_UNITS[name]
-        elif any((name in g) != (name in rows) for name in ("gap", "load_peak")):
-            raise ValueError("gap and load_peak must each be given for every passage or for none")
+        elif any((name in g) != (name in rows) for name in PASSAGE_OPTIONAL):
+            raise ValueError(f"{', '.join(PASSAGE_OPTIONAL)} must each be given for every passage or for none")
         done = g["passage"].shape[0]
         _append(g["passage"], np.arange(done + 1, done + len(t0) + 1, dtype=np.float64))
         _append(g["t_start"], t0)

@@ -12,7 +12,12 @@ and units in `DEFAULTS`, `TRAFFIC_DEFAULTS`; SI) describes:
   ``rail_mass`` [kg/m] per rail) of ``sleeper_size`` = [width along x, length across y,
   height] [m], at x_k = (k + ½)·spacing, their base at z = ``bed_depth``; translations not in
   ``sleeper_blocked`` free (default: z only; a half model: x and z, as the thesis's slice);
-  boxes never rotate (`pdem.bodies.boxes`), which blocks the sleeper's rotations: a limitation.
+  by default they do not rotate. ``sleeper_rotation = true`` makes them turning boxes that tilt
+  (default blocked "xyZ": z and the tilts about x and y; a half model "yXZ": x, z and the tilt
+  about y, the only one its symmetry plane allows), with the inertia ``sleeper_inertia``
+  [kg m²] (3 principal moments or a tensor) or that of the homogeneous box plus the rails as
+  point masses at their seats (`sleeper_inertia`); the load acts at the rail seats
+  (`seat_offsets`: with the beam each rail's pad at its seat, which moves with the sleeper).
 - the bed: from the subgrade (wall z = 0, ``base_material``, soft: stands for the layers
   below) to the sleeper top z_top = bed_depth + sleeper height, over the whole track length
   L = sleepers·spacing between end walls x = 0 and x = L; the shoulders reach
@@ -53,7 +58,8 @@ the thesis's order for the track (compact the bed, then cut it and place the sle
 
 Results (`pdem.format.schema`, kind "track"): ``results.h5`` with /series (`TRACK_SERIES`), /track
 (settlement and ballast force of every sleeper per sample), /passages (peak and permanent
-settlement, gap under each sleeper; with the beam the peak load on each sleeper),
+settlement, gap under each sleeper; with the beam the peak load on each sleeper; turning sleepers:
+settlement of each end, tilts, the void under each end third, with the beam the load share),
 /forces/peak_passage_<p> and end_passage_<p> (contact force distributions, passages 1, every
 ``forces_every``-th and the last); ``preparation.h5`` and
 ``.png``; ``analysis/`` (`python -m analysis track`); ``summary.txt`` (stages, passages, wall
@@ -80,9 +86,11 @@ from ..boundaries.loads import ETA_ZERO, AxleTrain, Haversine, SleeperLoad
 from ..boundaries.rail_beam import RailBeam, RailSection, SleeperRails
 from ..build.validate import boolean, number
 from .common.bounds import plausible
+from ..bodies.boxes import principal_inertia
 from .common.preparation import PREPARATION_DEFAULTS, PreparedRun, add_cloud, check_preparation, \
     pour_stage, refill_stage, remove_where, settle_stage, vibrate_stage
-from .track_record import PassageTracker, TrackWriter, sleeper_sample, write_force_record, write_sleepers
+from .track_record import PassageTracker, TrackWriter, end_heights, sleeper_sample, tilts, write_force_record, \
+    write_sleepers
 
 PREPARATION = ("pour", "vibrate", "settle", "refill")  # the pipeline's stages: compacted before the cut
 STAGES = PREPARATION + ("traffic",)
@@ -104,7 +112,8 @@ DEFAULTS = {
     "sleeper_material": "concrete",
     **PREPARATION_DEFAULTS,
 }
-OPTIONAL = {"sleeper_mass", "sleeper_blocked", "periodic"}  # periodic: no ends along x (`periodic_settings`)
+OPTIONAL = {"sleeper_mass", "sleeper_blocked", "sleeper_rotation", "sleeper_inertia",
+            "periodic"}  # periodic: no ends along x (`periodic_settings`)
 TRAFFIC_DEFAULTS = {
     "program": "axles", "prepared": "", "forces_every": 0,
     # program "axles"
@@ -124,6 +133,7 @@ AXLE_KEYS = {"axle_load", "axles", "speed", "passages", "rest_time", "rail_bendi
              "x_from", "x_to", "characteristic_length", "rail_model", "rail_pad_stiffness", "rail_length"}
 BEAM_KEYS = {"rail_pad_stiffness", "rail_length"}  # rail_model "beam" only
 RAIL_MODELS = ("share", "beam")
+TURNING = {False: "xyZ", True: "yXZ"}  # sleeper_rotation: blocked DOFs of a whole track, a half model
 HAVERSINE_KEYS = {"f_min", "f_max", "frequency", "cycles"}
 WHERE = ("track", "in the track bed")
 PREPARED = "prepared.h5"
@@ -177,15 +187,31 @@ def track_settings(doc):
     else:
         c["sleeper_mass"] = float(density) * w * length * h
     c["body_mass"] = share * c["sleeper_mass"] + (1 if c["half"] else 2) * c["rail_mass"] * c["spacing"]
-    blocked = c.get("sleeper_blocked", "yXYZ" if c["half"] else "xyXYZ")
-    if not isinstance(blocked, str) or set(blocked) - set("xyzXYZ") or not set("XYZ") <= set(blocked):
-        raise InputError(f"track.sleeper_blocked = {blocked!r}: must be letters from 'xyzXYZ' including X, Y and Z "
-                         "(sleepers do not rotate)")
+    rotation = c["sleeper_rotation"] = boolean("track.sleeper_rotation", c.get("sleeper_rotation", False))
+    blocked = c.get("sleeper_blocked", TURNING[c["half"]] if rotation else "yXYZ" if c["half"] else "xyXYZ")
+    if rotation:
+        need = "XZ" if c["half"] else "Z"
+        why = "turning sleepers: the vertical axis blocked" + (
+            "; a half model's symmetry plane y = 0 allows only the tilt about y" if c["half"] else "")
+    else:
+        need, why = "XYZ", "sleepers do not rotate; sleeper_rotation = true lets them tilt"
+    if not isinstance(blocked, str) or set(blocked) - set("xyzXYZ") or not set(need) <= set(blocked):
+        raise InputError(f"track.sleeper_blocked = {blocked!r}: must be letters from 'xyzXYZ' including "
+                         f"{', '.join(need)} ({why})")
     if c["half"] and "y" not in blocked:
         raise InputError(f"track.sleeper_blocked = {blocked!r}: a half model needs 'y' (no translation across the "
                          "symmetry plane)")
     c["sleeper_blocked"] = blocked
     periodic_settings(doc, c)
+    if "sleeper_inertia" in given and not rotation:
+        raise InputError("track.sleeper_inertia: used only with sleeper_rotation = true; remove it")
+    if rotation and "sleeper_inertia" in given:
+        try:
+            principal_inertia("track", c["sleeper_inertia"], 1.0, np.ones(3))
+        except InputError:
+            raise InputError(f"track.sleeper_inertia = {c['sleeper_inertia']!r}: must be 3 principal moments or a "
+                             "3x3 tensor [kg m^2] of the sleeper body about its centre in its axes, symmetric "
+                             "positive definite") from None
     if "steps" in doc.get("run", {}):
         raise InputError("run.steps: not used by a track scene (its stages end on their own criteria; "
                          "`pdem run --steps N` stops one early); remove it")
@@ -291,18 +317,29 @@ def sleeper_rails(c, t, train):
     ring = {"periodic": True} if c.get("periodic") else {}  # the rail's ends joined over the period
     beams = [RailBeam(x, t["rail_pad_stiffness"], section=section, x_start=mid - length / 2, x_end=mid + length / 2,
                       label="traffic.rail_length", **ring) for _ in range(1 if c["half"] else 2)]
-    return SleeperRails(beams, train)
+    return SleeperRails(beams, train, seats=seat_offsets(c) if c["sleeper_rotation"] else None)
 
 
-def check_pad_step(sim, t, rails):
+def check_pad_step(sim, t, rails, seats=None):
     """The pads act on the sleepers explicitly: the time step must resolve a sleeper on its
     ``rails`` pads (stiffness at most k each, `pdem.boundaries.rail_beam`): Δt <= sqrt(m / (rails
-    k)), half the leapfrog's limit for safety; else a one-line InputError naming the key."""
+    k)), half the leapfrog's limit for safety; turning sleepers (``seats``: the pads' points, box
+    axes [m]) also its rocking on them about every free tilt axis, Δt <= sqrt(I / (k Σ lever²));
+    else a one-line InputError naming the key."""
+    k = t["rail_pad_stiffness"]
     m = float(np.min(sim.boxes.mass))
-    limit = (m / (rails * t["rail_pad_stiffness"])) ** 0.5
+    limit = (m / (rails * k)) ** 0.5
+    what = f"a sleeper of {m:.4g} kg on {rails} pad(s) needs dt <= sqrt(m/(n k))"
+    for axis, lever in ((0, None if seats is None else seats[:, 1]), (1, None if seats is None else seats[:, 0])):
+        if lever is None or np.all(sim.boxes.blocked & (8 << axis)) or not np.any(lever):
+            continue
+        moment = float(np.min(sim.boxes.inertia[:, axis]))
+        rocking = (moment / (k * float(np.sum(lever ** 2)))) ** 0.5
+        if rocking < limit:
+            limit, what = rocking, (f"a sleeper of {moment:.4g} kg m^2 about {'xy'[axis]} rocking on its pads needs "
+                                    "dt <= sqrt(I/(k sum lever^2))")
     if sim.dt > limit:
-        raise InputError(f"traffic.rail_pad_stiffness = {t['rail_pad_stiffness']!r}: too stiff for the time step "
-                         f"{sim.dt:.3g} s (a sleeper of {m:.4g} kg on {rails} pad(s) needs dt <= sqrt(m/(n k)) = "
+        raise InputError(f"traffic.rail_pad_stiffness = {k!r}: too stiff for the time step {sim.dt:.3g} s ({what} = "
                          f"{limit:.3g} s)")
 
 
@@ -351,6 +388,33 @@ def sleeper_boxes(c):
     return centres, np.array([w / 2, hy, h / 2])
 
 
+def seat_offsets(c):
+    """[n_rails, 3] the rail seat of every modelled rail (a half model one, a whole track two: y
+    = ∓(gauge + head)/2) on the sleeper body, in its axes from its centre [m]: on its top face."""
+    centres, half = sleeper_boxes(c)
+    seat = (c["gauge"] + c["rail_head_width"]) / 2
+    return np.array([[0.0, y - centres[0, 1], half[2]] for y in ((seat,) if c["half"] else (-seat, seat))])
+
+
+def sleeper_inertia(c, rails):
+    """Principal moments [3] [kg m²] of a turning sleeper body about its centre, in its axes:
+    ``sleeper_inertia`` if given, else the homogeneous box of the body's sleeper mass (a half
+    model's half) plus, if ``rails``, each rail over one spacing as a point mass at its seat's
+    y at the centre's height (the body's centre of mass stays its centre; the rail's own
+    moments are left out)."""
+    if "sleeper_inertia" in c:
+        return c["sleeper_inertia"]
+    half = sleeper_boxes(c)[1]
+    a2, b2, c2 = (2.0 * half) ** 2
+    m = (0.5 if c["half"] else 1.0) * c["sleeper_mass"]
+    moments = m / 12.0 * np.array([b2 + c2, a2 + c2, a2 + b2])
+    if rails:
+        mr = c["rail_mass"] * c["spacing"]
+        for dy in seat_offsets(c)[:, 1]:
+            moments += mr * dy * dy * np.array([1.0, 0.0, 1.0])
+    return moments.tolist()
+
+
 def outside_bed(c, pos, r):
     """True for the spheres not wholly inside the bed's cross-section: above z_top or beyond a
     slope (signed distance to the slope plane > -r)."""
@@ -388,11 +452,13 @@ def slope_facets(c):
 
 
 # ---------------------------------------------------------------------------- stage scenes
-def stage_scene(doc, c, tables, sleepers=True, loads=None, centres=None, mass=None):
+def stage_scene(doc, c, tables, sleepers=True, loads=None, centres=None, mass=None, rails=True):
     """The `Scene` of a stage holding the spheres of ``tables``: the file's materials and
     settings, the subgrade, end and side walls, and if ``sleepers`` (from ``refill`` on) the
     slope facets and the sleepers (at ``centres`` if given; loaded by ``loads`` in ``traffic``;
-    each of ``mass`` [kg], default the track's ``body_mass``)."""
+    each of ``mass`` [kg], default the track's ``body_mass``; turning sleepers with the inertia
+    of `sleeper_inertia`, the rails' point masses in it if ``rails``, and the load at the mean
+    of their rail seats)."""
     base = {k: v for k, v in doc.items() if k in ("simulation", "materials")}
     base["simulation"] = {"slab_axis": "x", **base.get("simulation", {}), "allow_initial_overlap": True}
     g = profile(c)
@@ -411,11 +477,13 @@ def stage_scene(doc, c, tables, sleepers=True, loads=None, centres=None, mass=No
             scene.add_facet(tri, wm, name=f"slope_{k}")
         start, half = sleeper_boxes(c)
         at = start if centres is None else np.asarray(centres, float)
+        turning = {"inertia": sleeper_inertia(c, rails), "load_point": seat_offsets(c).mean(axis=0)} \
+            if c["sleeper_rotation"] else {}
         for k in range(c["sleepers"]):
             scene.add_box(at[k], half, c["sleeper_material"], c["body_mass"] if mass is None else mass,
                           blocked=c["sleeper_blocked"],
                           load=None if loads is None else loads[k], damping=scene.settings.damping,
-                          name=f"sleeper_{k}")
+                          name=f"sleeper_{k}", **turning)
     scene.add_sphere_columns(tables["particles"])
     return scene
 
@@ -447,7 +515,8 @@ def check(doc):
     t = traffic_settings(doc, c)
     run_settings(doc)
     loads = traffic_loads(c, t, 0.0)[0] if t is not None else None
-    stage_scene(doc, c, empty_tables(), loads=loads, mass=None if t is None else t.get("body_mass"))
+    stage_scene(doc, c, empty_tables(), loads=loads, mass=None if t is None else t.get("body_mass"),
+                rails=t is None or t.get("rail_model") != "beam")
 
 
 def run(path, doc, out_dir, comm, steps=None, fresh=False):
@@ -577,7 +646,8 @@ class TrackRun(PreparedRun):
     def traffic_scene(self, tables):
         loads = traffic_loads(self.c, self.t, self.state["traffic_start"])[0]
         centres = tables["boxes"]["center"] if "boxes" in tables else None
-        return stage_scene(self.doc, self.c, tables, loads=loads, centres=centres, mass=self.t.get("body_mass"))
+        return stage_scene(self.doc, self.c, tables, loads=loads, centres=centres, mass=self.t.get("body_mass"),
+                           rails=self.t.get("rail_model") != "beam")
 
     def bodies_settled(self, sim):
         """The sleepers at rest: on every one, |net force| / weight and |velocity| / sqrt(g r)
@@ -635,9 +705,16 @@ class TrackRun(PreparedRun):
             tr = PassageTracker(ends, peaks, sim.boxes.center[:, 2], loads=self.rails is not None)
             tr.start(sim.time, tr.settlement(sim.boxes.center[:, 2]))
         self.tracker = tr
+        turning = self.c["sleeper_rotation"]
+        if turning and not resumed:  # where the sleepers' ends and seats were when the traffic started
+            state["end_reference"] = end_heights(sim.boxes).tolist()
+            state["seat_reference"] = None if self.rails is None else \
+                self.rails.seat_heights(sim.boxes.center, sim.boxes.rotation).tolist()
+            state["load_rest"] = None
         if self.rails is not None:
-            self.rails.attach(sim.boxes, tr.reference)  # the rails laid on the sleepers where the traffic started
-            check_pad_step(sim, self.t, len(self.rails.beams))
+            # the rails laid on the sleepers (their seats, if the sleepers turn) where the traffic started
+            self.rails.attach(sim.boxes, state["seat_reference"] if turning else tr.reference)
+            check_pad_step(sim, self.t, len(self.rails.beams), self.rails.seats)
         self.writer = w = TrackWriter(self.results, sleeper_x(self.c), self.comm,
                                       restart_step=self.restart_step if resumed else None, passages_done=tr.p)
         self.loop.flush.append(w)
@@ -653,7 +730,10 @@ class TrackRun(PreparedRun):
 
         def on_step(sim):
             s = tr.settlement(sim.boxes.center[:, 2])
-            events = tr.update(sim.time, s, None if self.rails is None else -sim.boxes.load_force[:, 2])
+            load = None if self.rails is None else -sim.boxes.load_force[:, 2]
+            if turning and load is not None and state["load_rest"] is None:
+                state["load_rest"] = load.tolist()  # the first step of the traffic: no wheel on the rails
+            events = tr.update(sim.time, s, load)
             p = tr.p + 1
             if "peak" in events and recorded(p):
                 self.force_record(f"peak_passage_{p}", sim)
@@ -661,7 +741,13 @@ class TrackRun(PreparedRun):
                 gap = observables.box_gaps(sim)
                 row = tr.close(sim.time, s)
                 w.append(*sleeper_sample(sim, tr))
-                w.passage(row[0], row[1], row[2], row[3], gap, load_peak=row[4])
+                more = self.turning_record(sim, row[4], load) if turning else {}
+                w.passage(row[0], row[1], row[2], row[3], gap, load_peak=row[4], **more)
+                if more:
+                    self.loop.log(f"passage {p}/{n}: tilt about x {1e3 * more['tilt_x'].min():.3f} .. "
+                                  f"{1e3 * more['tilt_x'].max():.3f} mrad, about y {1e3 * more['tilt_y'].min():.3f}"
+                                  f" .. {1e3 * more['tilt_y'].max():.3f} mrad; end gaps max "
+                                  f"{1e3 * max(more['gap_lo'].max(), more['gap_hi'].max()):.3f} mm")
                 if recorded(p):
                     self.force_record(f"end_passage_{p}", sim)
                 self.loop.log(f"passage {p}/{n} done at t = {sim.time:.4f} s: settlement peak "
@@ -673,6 +759,27 @@ class TrackRun(PreparedRun):
             self.snapshot(sim)
 
         return on_step, lambda sim: tr.done, 1, ends[-1]
+
+    def turning_record(self, sim, load_peak, load):
+        """The /passages tables of turning sleepers at the end of a passage (collective): settlement
+        of each end of every sleeper body (lo, hi along its y axis; from its height when the
+        traffic started, positive down) [m], tilt about x and y [rad], the void under each end
+        third (`observables.box_end_gaps`) [m]; with the beam the load share [-]: the largest
+        load of the rails on the sleeper in the passage less its load at rest (the rails' weight:
+        no wheel on them, the first step of the traffic or the end of the passage before),
+        divided by the wheel loads on its rail seats (axle load / 2 per modelled rail). The load
+        at rest is then this step's (the passage is over: no wheel on the rails)."""
+        bx, state = sim.boxes, self.state
+        settled = np.asarray(state["end_reference"]) - end_heights(bx)
+        tilt = tilts(bx)
+        gaps = observables.box_end_gaps(sim)
+        out = {"settlement_lo": settled[:, 0], "settlement_hi": settled[:, 1], "tilt_x": tilt[:, 0],
+               "tilt_y": tilt[:, 1], "gap_lo": gaps[:, 0], "gap_hi": gaps[:, 1]}
+        if load_peak is not None:
+            wheels = len(self.rails.beams) * self.t["axle_load"] / 2.0
+            out["load_share"] = (np.asarray(load_peak) - np.asarray(state["load_rest"])) / wheels
+            state["load_rest"] = load.tolist()
+        return out
 
     def force_record(self, label, sim):
         write_force_record(self.results, label, sim)

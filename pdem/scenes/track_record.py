@@ -123,6 +123,25 @@ def sleeper_sample(sim, tracker):
     return row, s, force
 
 
+def end_heights(boxes):
+    """[n, 2] height z [m] of the middle of each box's base edge at its two ends along its own y
+    axis (lo: local (0, −h_y, −h_z), hi: (0, h_y, −h_z)), the box turned by its rotation."""
+    out = np.zeros((len(boxes), 2))
+    for k in range(len(boxes)):
+        h = boxes.half[k]
+        for e, sign in enumerate((-1.0, 1.0)):
+            out[k, e] = boxes.center[k, 2] + boxes.rotation[k, 2] @ np.array([0.0, sign * h[1], -h[2]])
+    return out
+
+
+def tilts(boxes):
+    """[n, 2] tilt [rad] of each box about x (across the track: its hi end up is positive) and
+    about y (along the track), from its rotation R (box → global): atan2(R_zy, R_zz) and
+    atan2(−R_zx, R_zz), the angles of R = R_y R_x that tilt the box's z axis."""
+    r = boxes.rotation
+    return np.stack([np.arctan2(r[:, 2, 1], r[:, 2, 2]), np.arctan2(-r[:, 2, 0], r[:, 2, 2])], axis=1)
+
+
 class TrackWriter:
     """``/series`` + ``/track`` rows and ``/passages`` of a results file (rank 0 writes).
 
@@ -161,10 +180,10 @@ class TrackWriter:
             schema.append_track_rows(self.path, np.array(self.rows_s), np.array(self.rows_f))
             self.rows_s, self.rows_f = [], []
 
-    def passage(self, t_start, t_end, peak, permanent, gap, load_peak=None):
+    def passage(self, t_start, t_end, peak, permanent, gap, load_peak=None, **more):
         if self.active:
             self.flush()
-            schema.append_passages(self.path, t_start, t_end, peak, permanent, gap, load_peak=load_peak)
+            schema.append_passages(self.path, t_start, t_end, peak, permanent, gap, load_peak=load_peak, **more)
 
     def close(self):
         self.flush()

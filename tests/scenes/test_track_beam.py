@@ -16,7 +16,6 @@ quasi-static beam's equilibrium, against the train's own axle positions), the pa
 the peak load on every sleeper, and the analysis says why it did not fit 3 passages.
 """
 import copy
-import shutil
 import tomllib
 
 import h5py
@@ -28,11 +27,10 @@ from pdem.boundaries.loads import AxleTrain
 from pdem.boundaries.rail_beam import UIC60, RailBeam, SleeperRails
 from pdem.errors import InputError
 from pdem.format.groups import read_track
-from pdem.io.checkpoint import list_checkpoints, read_checkpoint
 from pdem.scenes.track import make_train, track_settings, traffic_settings
 from pdem_cli import needs_mpiexec, run_pdem
-from run_files import datasets
 from test_track import DOC, SCENE
+from track_runs import assert_resume_in_passage_2, assert_same_bodies_on_3_ranks, assert_same_results, prepared_runs
 
 # the reduced track's rail scaled with its stiffness (E_k / 1e5): EI and pads so that the rail spreads a
 # wheel over about as many sleepers as a real track's; 1 kN axles (2 kN overloads this 2.4-grain bed)
@@ -134,12 +132,7 @@ def beam_scene(base, prepared, passages=3, extra=""):
 @pytest.fixture(scope="module")
 def beam_runs(tmp_path_factory):
     base = tmp_path_factory.mktemp("beam")
-    (base / "prepare.toml").write_text(PREPARE)
-    run_pdem(1, base / "prepare.toml", base / "bed")
-    scene = base / "beam.toml"
-    scene.write_text(beam_scene(base, base / "bed"))
-    r1 = run_pdem(1, scene, base / "r1")
-    r2 = run_pdem(2, scene, base / "r2")
+    scene, r1, r2 = prepared_runs(base, PREPARE, lambda bed: beam_scene(base, bed))
     return base, scene, r1, r2
 
 
@@ -189,39 +182,16 @@ def test_the_pads_carry_the_wheels_on_the_rail_and_the_rail(beam_runs):
 @pytest.mark.slow
 def test_same_bits_on_1_and_2_ranks_and_3_ranks_to_a_checkpoint(beam_runs):
     base, scene, _, _ = beam_runs
-    a, b = datasets(base / "r1" / "results.h5"), datasets(base / "r2" / "results.h5")
-    assert sorted(a) == sorted(b) and "passages/load_peak" in a
-    for k in a:
-        assert np.array_equal(a[k], b[k]), f"/{k} differs between 1 and 2 ranks"
-    out = base / "steps3"
-    run_pdem(3, scene, out, "--steps", "4200")  # the prepared bed is at step 3600: 600 steps of traffic
-    got = read_checkpoint(out / "checkpoints" / "ckpt_000000004200.h5")[0]
-    ref = read_checkpoint(base / "r1" / "checkpoints" / "ckpt_000000004200.h5")[0]
-    for col in ref["particles"]:
-        assert np.array_equal(ref["particles"][col], got["particles"][col]), f"step 4200, 3 ranks: particles/{col}"
-    assert np.array_equal(ref["boxes"]["center"], got["boxes"]["center"])
+    a = assert_same_results(base / "r1" / "results.h5", base / "r2" / "results.h5", "1 and 2 ranks")
+    assert "passages/load_peak" in a
+    assert_same_bodies_on_3_ranks(base, scene, 4200)  # the prepared bed is at step 3600: 600 steps of traffic
 
 
 @needs_mpiexec
 @pytest.mark.slow
 def test_resume_in_the_middle_of_a_passage(beam_runs):
-    base, scene, _, r2 = beam_runs
-    out = base / "resume"
-    shutil.copytree(base / "r2", out)
-    ends = read_track(out / "results.h5").passages["t_end"]
-    steps = [s for s, _ in list_checkpoints(out / "checkpoints")]
-    inside = [s for s in steps[:-1] if ends[0] < read_checkpoint(out / "checkpoints" / f"ckpt_{s:012d}.h5")[1]
-              ["time"] < ends[1]]
-    mid = inside[len(inside) // 2]  # inside passage 2
-    for s, path in list_checkpoints(out / "checkpoints"):
-        if s > mid:
-            path.unlink()
-    r = run_pdem(2, scene, out)
-    assert f"at step {mid} (stage traffic" in r.stdout and "(resumed)" in r.stdout
-    a, b = datasets(base / "r1" / "results.h5"), datasets(out / "results.h5")
-    assert sorted(a) == sorted(b)
-    for k in a:
-        assert np.array_equal(a[k], b[k]), f"/{k} differs after the restart"
+    base, scene, _, _ = beam_runs
+    assert_resume_in_passage_2(base, scene)
 
 
 @needs_mpiexec
