@@ -379,6 +379,86 @@ def add_deposition(scene, d):
     return scene
 
 
+def set_path(doc, path, value):
+    """Set the dotted ``path`` in the nested ``doc`` (tables created as needed; an integer
+    segment indexes an array of tables). Returns the paths of the tables it created (not in
+    the base scene). Raises InputError naming the path."""
+    parts = path.split(".")
+    if any(p == "" for p in parts):
+        raise InputError(f"{path}: not a dotted key (an empty part)")
+    node, created = doc, []
+    for i, p in enumerate(parts):
+        last = i == len(parts) - 1
+        where = ".".join(parts[:i + 1])
+        if isinstance(node, list):
+            if not p.lstrip("-").isdigit() or not -len(node) <= int(p) < len(node):
+                raise InputError(f"{path}: {'.'.join(parts[:i])} is an array of {len(node)}; "
+                                 f"{p!r} is not an index of it")
+            if last:
+                node[int(p)] = value
+            else:
+                node = node[int(p)]
+        elif isinstance(node, dict):
+            if last:
+                node[p] = value
+            else:
+                if p not in node:
+                    node[p] = {}
+                    created.append(where)
+                node = node[p]
+        else:
+            raise InputError(f"{path}: {'.'.join(parts[:i])} is a value, not a table, in the base scene")
+        if not last and not isinstance(node, (dict, list)):
+            raise InputError(f"{path}: {where} is a value ({node!r}), not a table, in the base scene")
+    return created
+
+
+def deepcopy_doc(x):
+    if isinstance(x, dict):
+        return {k: deepcopy_doc(v) for k, v in x.items()}
+    if isinstance(x, list):
+        return [deepcopy_doc(v) for v in x]
+    return x
+
+
+def parse_set(text):
+    """(dotted key, value) of one ``--set KEY=VALUE``: VALUE is a TOML value (3, 2.5e7, true,
+    [0.0, 0.0, -9.81], "text"); a bare word that is not one (``--set simulation.slab_axis=y``) is a
+    string. One-line InputError for a malformed argument."""
+    if not isinstance(text, str) or "=" not in text:
+        raise InputError(f"--set {text!r}: must be KEY=VALUE (a dotted scene key, e.g. run.steps=2000)")
+    key, raw = (part.strip() for part in text.split("=", 1))
+    if not key or any(p == "" for p in key.split(".")):
+        raise InputError(f"--set {text!r}: {key!r} is not a dotted scene key (e.g. materials.ballast.young)")
+    try:
+        return key, tomllib.loads(f"v = {raw}")["v"]
+    except tomllib.TOMLDecodeError:
+        if raw and all(ch.isalnum() or ch in "_-." for ch in raw):
+            return key, raw
+        raise InputError(f"--set {text!r}: {raw!r} is not a TOML value (numbers, true/false, [lists], "
+                         "quoted strings)") from None
+
+
+def apply_sets(doc, sets, check):
+    """A copy of the scene document ``doc`` with the ``--set KEY=VALUE`` texts ``sets`` applied
+    (in order; a later one wins), checked by ``check(doc)`` (the scene registry's validation):
+    the document as given must pass it, and a key that is not a key of that scene, or a value it
+    refuses, is one InputError line naming the --set."""
+    check(doc)
+    out = deepcopy_doc(doc)
+    for text in sets:
+        key, value = parse_set(text)
+        try:
+            set_path(out, key, value)
+        except InputError as exc:
+            raise InputError(f"--set {text}: {exc}") from None
+        try:
+            check(out)
+        except InputError as exc:
+            raise InputError(f"--set {text}: {exc}") from None
+    return out
+
+
 def load_scene(path):
     """(Scene, run settings, parsed document) from a plain scene file."""
     doc = load_toml(path)
