@@ -238,11 +238,15 @@ def add_bodies(scene, doc):
                 * float(np.prod(size)))
         k_load, program = on_body.get(b["name"], (None, None))
         force = program if program is not None and not isinstance(program[0], Motion) else None
-        scene.add_box(b["center"], 0.5 * size, b["material"], mass, blocked=b.get("blocked"),
-                      fixed=boolean(f"{label}.fixed", b.get("fixed", False)),
-                      load=force[0] if force else None, direction=force[1] if force else (0.0, 0.0, -1.0),
-                      velocity=b.get("velocity", (0.0, 0.0, 0.0)), damping=b.get("damping", 0.0), name=b["name"],
-                      inertia=b.get("inertia"))
+        try:
+            scene.add_box(b["center"], 0.5 * size, b["material"], mass, blocked=b.get("blocked"),
+                          fixed=boolean(f"{label}.fixed", b.get("fixed", False)),
+                          load=force[0] if force else None, direction=force[1] if force else (0.0, 0.0, -1.0),
+                          velocity=b.get("velocity", (0.0, 0.0, 0.0)), damping=b.get("damping", 0.0),
+                          name=b["name"], inertia=b.get("inertia"))
+        except InputError as exc:  # the box's checks name it boxes.NAME; the file calls it bodies.NAME
+            text = str(exc)
+            raise InputError(f"bodies.{text[6:]}" if text.startswith("boxes.") else text) from None
         if program is not None and force is None:
             scene.add_motion("box", b["name"], program[0], program[1], label=f"loads[{k_load}]")
     for name, (k, (motion, direction)) in on_wall.items():

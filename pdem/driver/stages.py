@@ -198,6 +198,8 @@ def same_results(old_text, new_text):
     trajectory: equal, or equal but for output-only keys (`pdem.build.config.result_identity`)."""
     if old_text == new_text:
         return True
+    if not isinstance(old_text, str):
+        return False
     try:
         return result_identity(tomllib.loads(old_text)) == result_identity(tomllib.loads(new_text))
     except (TypeError, tomllib.TOMLDecodeError):
