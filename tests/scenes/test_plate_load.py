@@ -1,8 +1,8 @@
 """jobs/plate_load.toml, the experiment written only as a scene file (docs/own_experiment.md), and
-``pdem run --set``: a short run (--steps) on 1 and 2 ranks gives the same bits; its series carry
-the plate's position, force and load, the load following the haversine formula; --set changes
-the scene (written to OUT/scene_set.toml), refuses unknown keys and bad values in one line, and
-enters the ranks' start digest."""
+``pdem run --set``: a short run (--steps) on 1 and 2 ranks, and resumed from a checkpoint, gives
+the same bits; its series carry the plate's position, force and load, the load following the
+haversine formula; --set changes the scene (written to OUT/scene_set.toml), refuses unknown keys
+and bad values in one line, and enters the ranks' start digest."""
 import math
 import tomllib
 
@@ -32,6 +32,16 @@ def runs(tmp_path_factory):
 def test_same_bits_on_1_and_2_ranks(runs):
     """slow: 300 steps of the job on 1 and 2 ranks."""
     assert run_differences(*runs, files=("results.h5",)) == []
+
+
+@pytest.mark.slow
+@needs_mpiexec
+def test_resume_on_another_rank_count_gives_the_same_bits(runs, tmp_path):
+    """slow: 150 steps on 1 rank, resumed to 300 on 2, against the straight run."""
+    out = tmp_path / "resumed"
+    run_pdem(1, JOB, out, "--steps", "150")
+    run_pdem(2, JOB, out, "--steps", STEPS)
+    assert run_differences(runs[0], out, files=("results.h5",)) == []
 
 
 @pytest.mark.slow
