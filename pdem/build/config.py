@@ -50,6 +50,7 @@ Output-only keys (`OUTPUT_ONLY_KEYS`, the [run] intervals of progress, output, s
 checkpoints and fragment records) change what a run writes, never its trajectory: `result_identity`
 leaves them out of what a checkpoint or a campaign member is compared on.
 """
+import re
 import tomllib
 from dataclasses import fields
 
@@ -88,6 +89,7 @@ TOP_KEYS = {"simulation", "run", "materials", "material_pairs", "walls", "facets
 OUTPUT_ONLY_KEYS = ("run.progress_every", "run.output_every", "run.snapshot_every", "run.checkpoint_every",
                     "run.checkpoint_every_s", "run.checkpoint_keep", "run.fragments_every")
 AXES = {"x": 0, "y": 1, "z": 2}
+NAME = re.compile(r"^[A-Za-z0-9_.-]+$")  # a body's or wall's name (it names /series columns)
 
 
 def check_keys(where, table, allowed, required=()):
@@ -171,8 +173,9 @@ def scene_from_dict(doc, scene_tables=()):
     for k, w in enumerate(_table_list("walls", doc.get("walls", []))):
         check_keys(f"walls[{k}]", w, WALL_KEYS, ("axis", "position", "material"))
         name = w.get("name", "")
-        if not isinstance(name, str) or name in scene.walls.names:
-            raise InputError(f"walls[{k}].name = {name!r}: must be a string, not the name of another wall")
+        if not isinstance(name, str) or not (name == "" or NAME.match(name)) or name in scene.walls.names:
+            raise InputError(f"walls[{k}].name = {name!r}: must be letters, digits, _ . - (it names series "
+                             "columns), not the name of another wall")
         scene.add_wall(w["axis"], w["position"], w["material"], sense=w.get("sense", 0),
                        velocity=w.get("velocity", (0.0, 0.0, 0.0)), name=name)
     for k, f in enumerate(_table_list("facets", doc.get("facets", []))):
@@ -197,8 +200,9 @@ def add_bodies(scene, doc):
     for k, b in enumerate(bodies):
         check_keys(f"bodies[{k}]", b, BODY_KEYS, ("name", "center", "size", "material"))
         name = b["name"]
-        if not isinstance(name, str) or not name or name in names:
-            raise InputError(f"bodies[{k}].name = {name!r}: must be a non-empty string, not the name of another body")
+        if not isinstance(name, str) or not NAME.match(name) or name in names:
+            raise InputError(f"bodies[{k}].name = {name!r}: must be letters, digits, _ . - (it names series "
+                             "columns), not the name of another body")
         names.append(name)
     wall_names = list(scene.walls.names)
     on_body, on_wall = {}, {}

@@ -107,6 +107,8 @@ def _edit(path, value):
     (("bodies", 0, "material"), "glass", "bodies.plate.material"),
     (("bodies", 0, "shape"), "sphere", "bodies.plate.shape"),
     (("bodies", 0, "name"), "", "bodies[0].name"),
+    (("bodies", 0, "name"), "my plate", "bodies[0].name"),
+    (("walls", 0, "name"), "a/b", "walls[0].name"),
     (("loads", 0, "type"), "square", "loads[0].type"),
     (("loads", 0, "body"), "sleeper", "loads[0].body"),
     (("loads", 0, "f_max"), 10.0, "loads[0].f_max"),
