@@ -35,10 +35,12 @@ from .version import __version__
 _RANK_VARS = ("PMI_RANK", "OMPI_COMM_WORLD_RANK", "MV2_COMM_WORLD_RANK", "SLURM_PROCID")
 
 
-def run_file(path, out, steps=None, fresh=False, comm=None):
+def run_file(path, out, steps=None, fresh=False, comm=None, sets=()):
     """Run the scene file ``path`` into ``out`` on this process's ranks; returns the exit status
     (exceptions propagate: `pdem.driver.failures.run_guarded` turns them into statuses). First
-    of all, the ranks agree on their input (`pdem.driver.preflight.agree_on_input`)."""
+    of all, the ranks agree on their input (`pdem.driver.preflight.agree_on_input`, the ``sets``
+    included). ``sets``: ``KEY=VALUE`` texts (`pdem.build.config.apply_sets`); the scene they
+    make is written to ``out/scene_set.toml`` and run from there (its text is the run's scene)."""
     from .build.config import load_toml
     from .driver.plain import run_scene_file
     from .parallel.comm import get_comm
@@ -47,36 +49,42 @@ def run_file(path, out, steps=None, fresh=False, comm=None):
     from .driver.preflight import agree_on_input, check_run_length
 
     comm = get_comm(comm)
-    agree_on_input(comm, path, {"out": str(out), "steps": steps, "fresh": bool(fresh)})
+    sets = list(sets or ())
+    agree_on_input(comm, path, {"out": str(out), "steps": steps, "fresh": bool(fresh), "set": sets})
     if steps is not None:
         steps = number("--steps", steps, 0, integer=True, allow="an integer >= 0 (the total steps of the run)")
         check_run_length(f"--steps = {steps}", steps)
     doc = load_toml(path)
+    if sets:
+        path, doc = write_set_scene(comm, path, doc, sets, out)
     _, scene = find(doc)
     if scene is not None:
         return scene.run(path, doc, out, comm, steps=steps, fresh=fresh)
     return run_scene_file(path, doc, out, comm, steps=steps, fresh=fresh)
 
 
-def check_file(path, out, steps=None, comm=None):
+def check_file(path, out, steps=None, comm=None, sets=()):
     """``pdem run SCENE --check``: load and check everything a run checks at its start, without
     stepping or writing: the ranks' agreement on their input, the scene file (its scene's own
     tables, run settings, materials; a plain scene is built, so its initial overlaps and the rank
     count are checked too), the run's length and whether ``out`` could hold the output. Rank 0
-    prints one line ``ok ...``; returns 0 (a problem raises, as a run would at its start)."""
-    from .build.config import load_toml, run_settings, scene_from_dict
+    prints one line ``ok ...``; returns 0 (a problem raises, as a run would at its start).
+    ``sets``: ``KEY=VALUE`` texts applied as a run applies them (nothing written)."""
+    from .build.config import apply_sets, load_toml, run_settings, scene_from_dict
     from .build.validate import number
     from .driver.preflight import agree_on_input, check_run_length
     from .driver.runloop import check_output
     from .parallel.comm import get_comm
-    from .scenes import SCENES, find
+    from .scenes import SCENES, check, find
 
-    comm = get_comm(comm)
-    agree_on_input(comm, path, {"out": str(out), "steps": steps, "fresh": False, "check": True})
+    comm, sets = get_comm(comm), list(sets or ())
+    agree_on_input(comm, path, {"out": str(out), "steps": steps, "fresh": False, "check": True, "set": sets})
     if steps is not None:
         steps = number("--steps", steps, 0, integer=True, allow="an integer >= 0 (the total steps of the run)")
         check_run_length(f"--steps = {steps}", steps)
     doc = load_toml(path)
+    if sets:
+        doc = apply_sets(doc, sets, check)
     name, scene = find(doc)
     if scene is not None:
         scene.check(doc)
@@ -92,6 +100,28 @@ def check_file(path, out, steps=None, comm=None):
     if comm.rank == 0:
         print(f"ok {path}: {what}, output folder {out} usable, on {comm.size} rank(s) (checked, not run)", flush=True)
     return 0
+
+
+SET_SCENE = "scene_set.toml"  # the scene a run with --set runs, in its output directory
+
+
+def write_set_scene(comm, path, doc, sets, out):
+    """(path of ``out``/scene_set.toml, its document): ``doc`` with ``sets`` applied, written by
+    rank 0 (atomically; every rank reads it after a broadcast)."""
+    from .build.config import apply_sets
+    from .campaign.tomlw import dumps
+    from .driver.runloop import prepare_output
+    from .io.atomic import atomic_write_text
+    from .scenes import check
+
+    doc = apply_sets(doc, sets, check)
+    target = prepare_output(comm, out) / SET_SCENE
+    if comm.rank == 0:
+        header = (f"the scene run by pdem run {path} " + " ".join(f"--set {s}" for s in sets)
+                  + "\n(written by pdem run; the run's scene file)")
+        atomic_write_text(target, dumps(doc, header=header))
+    comm.bcast(None)  # the file exists before any rank reads it
+    return str(target), doc
 
 
 class _Parser(argparse.ArgumentParser):
@@ -113,6 +143,9 @@ def main(argv=None):
     r.add_argument("--steps", type=int, default=None,
                    help="override run.steps (the total of the run: a resumed run continues up to it); a track "
                         "scene stops with a checkpoint at step N (run again without it to continue)")
+    r.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", dest="sets",
+                   help="set a scene key (dotted, e.g. materials.ballast.young=2.8e7; a TOML value); repeatable; "
+                        "the scene run is written to OUT/scene_set.toml")
     r.add_argument("--fresh", action="store_true",
                    help="ignore and remove the checkpoints in OUT/checkpoints and start from step 0")
     r.add_argument("--check", action="store_true",
@@ -142,8 +175,8 @@ def main(argv=None):
         def run():
             configure_threads(comm)
             if args.check:
-                return check_file(args.scene, out, steps=args.steps, comm=comm)
-            return run_file(args.scene, out, steps=args.steps, fresh=args.fresh, comm=comm)
+                return check_file(args.scene, out, steps=args.steps, comm=comm, sets=args.sets)
+            return run_file(args.scene, out, steps=args.steps, fresh=args.fresh, comm=comm, sets=args.sets)
 
         status = run_guarded(comm, run)
         if status == 0 and comm.rank == 0 and not args.check:

@@ -56,7 +56,7 @@ class Simulation:
     """Built by `pdem.build.scene.Scene.build`; run with `run(n_steps)`."""
 
     def __init__(self, *, particles, materials, walls, facets, boxes, settings, skin, domain, spec, guard=None,
-                 clumps=None, bonds=None):
+                 clumps=None, bonds=None, motions=None):
         self.settings = settings  # `pdem.settings.SimulationSettings`, as the scene made them
         self.particles = particles
         self.law = get_law(settings.law)
@@ -92,11 +92,13 @@ class Simulation:
         if bonds is not None:  # bonds of breakable clumps (pdem.bodies.bonds): contacts made before the first step
             key, params, history = bonds
             self.kind("sphere_sphere").contacts.add_carried(key, np.ones(len(key), np.int8), params, history)
+        # displacement control of boxes and walls (`pdem.boundaries.loads.Motion`, `apply_motions`)
+        self.motions = motions or []
         # a box's load and weight do external work; the flag must be the same on every rank
         self.moving_boundaries = bool(self.comm.any_flag(bool(
             (len(walls) and np.any(walls.velocity)) or (len(facets) and np.any(facets.velocity))
             or np.any(particles.vel[: particles.n_local][particles.blocked[: particles.n_local] == DOF_ALL])
-            or self.boxes is not None)))
+            or self.boxes is not None or bool(self.motions))))
         self.rebuild()
         self.update_dt(force=True)
 
@@ -174,6 +176,8 @@ class Simulation:
                                 self.gravity, self.dt)
         if self.clumps is not None:  # moves the clumps and overwrites their members' rows
             self.clumps.integrate(p, self.gravity, self.damping, self.dt)
+        if self.motions:
+            self.apply_motions()
         if len(self.walls) and self.walls.velocity.any():  # (a wall at rest stays: x + 0·Δt = x)
             before = self.walls.position.copy()
             self.walls.move(self.dt)
@@ -183,6 +187,17 @@ class Simulation:
             self.boundary_moved += float(np.max(np.linalg.norm(self.facets.velocity, axis=1))) * self.dt
         if self.boxes is not None:  # after the spheres, from the force summed in compute_forces
             self.boundary_moved += self.boxes.integrate(self.time, self.dt, self.gravity)
+
+    def apply_motions(self):
+        """The velocity of this step (t to t + Δt) of every displacement-controlled box and wall:
+        (u(t + Δt) − u(t))/Δt along its direction (`pdem.boundaries.loads.Motion`), on its
+        controlled components only (a box's blocked translations; a wall's axis)."""
+        for target, b, program, d in self.motions:
+            v = program.step_velocity(self.time, self.dt)
+            rows = self.boxes.velocity if target == "box" else self.walls.velocity
+            for c in range(3):
+                if d[c] != 0.0:
+                    rows[b, c] = v * d[c]
 
     def advance(self):
         """One time step."""

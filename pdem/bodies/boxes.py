@@ -50,7 +50,7 @@ import numpy as np
 from numba import njit
 
 from ..errors import InputError
-from ..boundaries.loads import Constant, Haversine, Impulse, SleeperLoad
+from ..boundaries.loads import Constant, Haversine, Impulse, Ramp, SleeperLoad
 from .clump_properties import qnormalize, quaternion_from_matrix
 from .clumps import aspherical_rotate, normalised, rotation_matrix
 from .state import DOF_ALL
@@ -242,10 +242,10 @@ class Boxes:
                              "contain X, Y and Z (e.g. 'xyXYZ' for z translation only)")
         moments, axes = principal_inertia(label, inertia, m, h)
         arm = vector3(f"{label}.load_point", load_point)
-        if load is not None and not isinstance(load, (Constant, Haversine, Impulse, SleeperLoad)):
+        if load is not None and not isinstance(load, (Constant, Haversine, Impulse, Ramp, SleeperLoad)):
             raise InputError(
                 f"{label}.load = {load!r}: must be None or a pdem.boundaries.loads program (Haversine, Constant, "
-                "Impulse, SleeperLoad)"
+                "Impulse, Ramp, SleeperLoad)"
             )
         d = vector3(f"{label}.direction", direction)
         norm = float(np.sqrt(d @ d))

@@ -26,6 +26,11 @@ Yade's bonds made on such an overlap start loaded (``stress_free = false``):
 - `ballast8(r)`: the 8-sphere ballast clump (SPEC 2.3, member r = 8.5 mm): 2 × 2 × 2 touching
   spheres at (±r, ±r, ±r).
 
+- `custom_members(members)`: a grain of given spheres, rows (x, y, z, r) [m] about any origin
+  (a scene file's ``shape = "custom"``), checked (finite, r > 0, no two on one centre, every
+  member touching or overlapping another so that they form one body) and moved so that the
+  volume-weighted mean of the member centres (Σ r³ x / Σ r³) is the origin.
+
 `grain_cloud` places ``count`` copies of a shape, each turned by its own uniformly random
 rotation (seeded), on a cubic lattice of grain sites inside a box (the thesis puts clumps in a
 regular grid, 4.1), filling from the bottom up in random order within a layer. Units: m.
@@ -119,6 +124,44 @@ def ballast8(member_radius=BALLAST8_MEMBER_RADIUS, spacing=None):
     h = _spacing(r, spacing)
     g = np.stack(np.meshgrid([-1.0, 1.0], [-1.0, 1.0], [-1.0, 1.0], indexing="ij"), -1).reshape(-1, 3)
     return g * (0.5 * h), np.full(8, r)
+
+
+def custom_members(members, label="clumps"):
+    """(pos [k, 3], radius [k]) [m] of a grain given as rows (x, y, z, r) [m] (module docstring);
+    InputError naming ``label``.members and what is wrong."""
+    field = f"{label}.members"
+    rows = members if isinstance(members, list) else None
+    if (not rows or not all(isinstance(m, list) and len(m) == 4 for m in rows)
+            or any(isinstance(x, bool) or not isinstance(x, (int, float)) for m in rows for x in m)):
+        text = repr(members)
+        raise InputError(f"{field} = {text if len(text) <= 60 else text[:57] + '...'}: must be a non-empty list of "
+                         "[x, y, z, r] rows of numbers [m]")
+    a = np.asarray(rows, np.float64)
+    if not np.all(np.isfinite(a)):
+        raise InputError(f"{field}: a value is not finite; rows are [x, y, z, r] [m]")
+    bad = np.flatnonzero(a[:, 3] <= 0.0)
+    if len(bad):
+        raise InputError(f"{field}[{bad[0]}] radius = {a[bad[0], 3]!r}: must be > 0 [m]")
+    pos, r = a[:, :3], a[:, 3]
+    d = np.linalg.norm(pos[:, None] - pos[None], axis=2)
+    same = np.argwhere(np.triu(d == 0.0, 1))
+    if len(same):
+        i, j = same[0]
+        raise InputError(f"{field}[{i}] and [{j}]: two members on one centre {pos[i].tolist()} m")
+    touch = d <= (r[:, None] + r[None]) * (1.0 + 1e-9)
+    seen, todo = {0}, [0]
+    while todo:
+        k = todo.pop()
+        for j in np.flatnonzero(touch[k]):
+            if int(j) not in seen:
+                seen.add(int(j))
+                todo.append(int(j))
+    if len(seen) < len(r):
+        k = min(set(range(len(r))) - seen)
+        raise InputError(f"{field}[{k}] at {pos[k].tolist()} m: does not touch the others (member {k} is apart from "
+                         "member 0's group); members must touch or overlap to form one grain")
+    w = r ** 3
+    return pos - (w[:, None] * pos).sum(axis=0) / w.sum(), r.copy()
 
 
 def random_rotations(n, rng):

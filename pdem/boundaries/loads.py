@@ -12,6 +12,12 @@ A program is a small immutable spec with ``value(t)`` (t [s] since the start of 
   F = F_min + (F_max − F_min)|sin πf(t − start)| (one positive half sine per cycle: the same
   peaks at mid-cycle, steeper at the start and end of each cycle, no rest at F_min).
 - `Impulse(f0, duration, start=0)`: F = F_0 (1 − τ'/τ) for 0 ≤ τ' = t − start ≤ τ, else 0.
+- `Ramp(f_from, f_to, duration, start=0)`: F = F_from + (F_to − F_from) clamp((t − start)/τ, 0, 1).
+- `Motion(speed, displacement=inf, start=0)`: not a force but a prescribed displacement
+  u(t) = min(v · max(t − start, 0), u_max) [m] along the body's direction (displacement
+  control: move at ``speed`` [m/s] until ``displacement`` [m] is reached, then hold; velocity
+  control without a limit). The driver gives the body the velocity (u(t + Δt) − u(t))/Δt of each
+  step (`Motion.step_velocity`), so it lands on u_max exactly and stays there.
 - `AxleTrain(...)`: trains of axles passing at a constant speed over a row of sleepers (moving
   axle loads); `AxleTrain.sleeper_load(x)` is the program of the sleeper at x: the time-shifted
   rail-seat share of every wheel (`rail_seat_share`, Zimmermann's beam on an elastic
@@ -95,6 +101,49 @@ class Impulse:
 
     def spec(self):
         return {"type": "impulse", "f0": self.f0, "duration": self.duration, "start": self.start}
+
+
+class Ramp:
+    """F from ``f_from`` to ``f_to`` [N] linearly over ``duration`` [s] from ``start`` [s], then held."""
+
+    def __init__(self, f_from, f_to, duration, *, start=0.0, label="load"):
+        self.f_from = number(f"{label}.f_from", f_from, allow="a finite number [N]")
+        self.f_to = number(f"{label}.f_to", f_to, allow="a finite number [N]")
+        self.duration = number(f"{label}.duration", duration, 0.0, lo_open=True, allow="a time > 0 [s]")
+        self.start = number(f"{label}.start", start, 0.0, allow="a time >= 0 [s]")
+
+    def value(self, t):
+        s = min(max((t - self.start) / self.duration, 0.0), 1.0)
+        return self.f_from + (self.f_to - self.f_from) * s
+
+    def spec(self):
+        return {"type": "ramp", "f_from": self.f_from, "f_to": self.f_to, "duration": self.duration,
+                "start": self.start}
+
+
+class Motion:
+    """Prescribed displacement u(t) = min(speed · max(t − start, 0), displacement) [m] (module
+    docstring): displacement control, or velocity control with ``displacement`` = inf."""
+
+    def __init__(self, speed, displacement=float("inf"), *, start=0.0, label="load"):
+        self.speed = number(f"{label}.speed", speed, 0.0, lo_open=True, allow="a speed > 0 [m/s]")
+        if displacement != float("inf"):
+            displacement = number(f"{label}.displacement", displacement, 0.0, lo_open=True,
+                                  allow="a distance > 0 [m]")
+        self.displacement = float(displacement)
+        self.start = number(f"{label}.start", start, 0.0, allow="a time >= 0 [s]")
+
+    def value(self, t):
+        """u(t) [m]."""
+        return min(self.speed * max(t - self.start, 0.0), self.displacement)
+
+    def step_velocity(self, t, dt):
+        """The speed [m/s] of the step from t to t + dt that follows u."""
+        return (self.value(t + dt) - self.value(t)) / dt
+
+    def spec(self):
+        return {"type": "motion", "speed": self.speed, "displacement": repr(self.displacement)
+                if self.displacement == float("inf") else self.displacement, "start": self.start}
 
 
 # ---------------------------------------------------------------------------- moving axle loads

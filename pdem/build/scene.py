@@ -77,6 +77,7 @@ class Scene:
         self._clumps = []  # (clumps, clump_members) tables of the rigid clumps (pdem.bodies.clumps)
         self._bonds = []  # (gid1, gid2, stress_free) of the bonds of breakable clumps (pdem.bodies.bonds)
         self._clump_ids = []
+        self.motions = []  # (target "box"|"wall", index, Motion, unit direction) of displacement control
 
     @property
     def material_names(self):
@@ -341,6 +342,41 @@ class Scene:
                               direction=direction, velocity=velocity, damping=damping, name=name, members=members,
                               member_radius=member_radius, inertia=inertia, load_point=load_point)
 
+    def add_motion(self, target, name, program, direction=(0.0, 0.0, -1.0), *, label="motion"):
+        """Displacement or velocity control (`pdem.boundaries.loads.Motion`) of the box or wall
+        ``name`` (``target`` "box" or "wall") along ``direction``: each step the body gets the
+        velocity that follows the program (`Simulation.apply_motions`). A box must have the
+        translations along ``direction`` blocked (the program, not the forces, moves it); a wall
+        moves along its own axis only."""
+        from ..boundaries.loads import Motion
+
+        if not isinstance(program, Motion):
+            raise InputError(f"{label}: must be a pdem.boundaries.loads.Motion, got {type(program).__name__}")
+        d = vectors(f"{label}.direction", direction, 1)[0]
+        norm = float(np.sqrt(d @ d))
+        if not norm > 0.0:
+            raise InputError(f"{label}.direction = {d.tolist()}: must be a non-zero vector")
+        d = d / norm
+        if target == "box":
+            b = self.boxes.index(name)
+            free = [c for c in range(3) if d[c] != 0.0 and not self.boxes.blocked[b] & (1 << c)]
+            if free:
+                raise InputError(f"{label}.direction = {d.tolist()}: box {self.boxes.names[b]!r} is free along "
+                                 f"{'xyz'[free[0]]}; displacement control needs that translation blocked "
+                                 f"(blocked containing {'xyz'[free[0]]!r}, or fixed = true)")
+        elif target == "wall":
+            if name not in self.walls.names:
+                raise InputError(f"{label}.wall = {name!r}: unknown; defined: {', '.join(self.walls.names) or 'none'}")
+            b = self.walls.names.index(name)
+            axis = int(self.walls.axis[b])
+            if any(d[c] != 0.0 for c in range(3) if c != axis):
+                raise InputError(f"{label}.direction = {d.tolist()}: wall {name!r} moves along its axis "
+                                 f"{'xyz'[axis]} only")
+        else:
+            raise InputError(f"{label}: target {target!r} must be 'box' or 'wall'")
+        self.motions.append((target, b, program, d))
+        return len(self.motions) - 1
+
     # ------------------------------------------------------------------ build
     def spheres(self):
         """All declared spheres as one dict of columns (see `pdem.bodies.state.FIELDS`)."""
@@ -362,6 +398,9 @@ class Scene:
         }
         if len(self.boxes):
             out["boxes"] = self.boxes.spec()
+        if self.motions:
+            out["motions"] = [dict(target=t, index=int(i), direction=d.tolist(), **m.spec())
+                              for t, i, m, d in self.motions]
         return out
 
     def _check_initial_overlaps(self, cols):
@@ -458,6 +497,7 @@ class Scene:
             guard=guard,
             clumps=rigid,
             bonds=bonds,
+            motions=list(self.motions),
         )
         if not s.allow_initial_overlap:
             check_initial_overlaps(sim)

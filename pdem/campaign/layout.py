@@ -7,12 +7,16 @@ writes there: results.h5, checkpoints/, ...). A member's scene.toml is never rew
 Expanding again changes nothing (files whose content would not change are not rewritten) and
 adds members that are new in the campaign file. It refuses, before writing anything, a
 directory that holds another campaign (manifest name) or that is not a campaign directory, and
-a member whose scene or parameters would change (its results would no longer match its scene).
+a member whose scene or parameters would change its results (they would no longer match its
+scene). A change of output-only keys only (`pdem.build.config.OUTPUT_ONLY_KEYS`: progress,
+output, snapshot, checkpoint intervals) is not one: the member's files are rewritten with it.
 """
 import json
 import os
+import tomllib
 from pathlib import Path
 
+from ..build.config import OUTPUT_ONLY_KEYS, result_identity
 from ..errors import InputError
 from ..format import campaign as fmt
 from ..format.campaign import MANIFEST, MEMBER, SCENE
@@ -60,6 +64,23 @@ def read_manifest(out):
         return fmt.read_manifest(out)
     except fmt.ManifestError as exc:
         raise InputError(str(exc)) from None
+
+
+def same_results(fname, old, new):
+    """True if the member file ``fname`` (scene.toml or member.json) with text ``old`` describes
+    a run with the same results as with text ``new``: they differ at most in output-only keys."""
+    if old == new:
+        return True
+    try:
+        if fname == SCENE:
+            return result_identity(tomllib.loads(old)) == result_identity(tomllib.loads(new))
+        a, b = json.loads(old), json.loads(new)
+    except (ValueError, tomllib.TOMLDecodeError):
+        return False
+    for d in (a, b):
+        if isinstance(d.get("overrides"), dict):
+            d["overrides"] = {k: v for k, v in d["overrides"].items() if k not in OUTPUT_ONLY_KEYS}
+    return a == b
 
 
 def write_campaign(camp, log=print):
@@ -116,7 +137,7 @@ def plan_campaign(camp):
                 raise InputError(f"{d}: belongs to campaign {owner!r} ({MEMBER}), not {camp.name!r}; "
                                  "give this campaign another out directory")
         for fname, text in texts.items():
-            if (d / fname).exists() and (d / fname).read_text() != text:
+            if (d / fname).exists() and not same_results(fname, (d / fname).read_text(), text):
                 what = "its scene" if fname == SCENE else "its parameters"
                 raise InputError(f"{d}: {what} ({fname}) differ from what {camp.path.name} expands to now "
                                  "(the campaign or its base scene changed since it was expanded); members are never "

@@ -33,7 +33,7 @@ import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from ..build.config import load_toml
+from ..build.config import deepcopy_doc as _deepcopy, load_toml, set_path  # noqa: F401 (set_path: API)
 from ..errors import InputError
 from .validate import check_member
 
@@ -106,48 +106,6 @@ def flatten(table, prefix=""):
         else:
             out[key] = v
     return out
-
-
-def set_path(doc, path, value):
-    """Set the dotted ``path`` in the nested ``doc`` (tables created as needed; an integer
-    segment indexes an array of tables). Returns the paths of the tables it created (not in
-    the base scene). Raises InputError naming the path."""
-    parts = path.split(".")
-    if any(p == "" for p in parts):
-        raise InputError(f"{path}: not a dotted key (an empty part)")
-    node, created = doc, []
-    for i, p in enumerate(parts):
-        last = i == len(parts) - 1
-        where = ".".join(parts[:i + 1])
-        if isinstance(node, list):
-            if not p.lstrip("-").isdigit() or not -len(node) <= int(p) < len(node):
-                raise InputError(f"{path}: {'.'.join(parts[:i])} is an array of {len(node)}; "
-                                 f"{p!r} is not an index of it")
-            if last:
-                node[int(p)] = value
-            else:
-                node = node[int(p)]
-        elif isinstance(node, dict):
-            if last:
-                node[p] = value
-            else:
-                if p not in node:
-                    node[p] = {}
-                    created.append(where)
-                node = node[p]
-        else:
-            raise InputError(f"{path}: {'.'.join(parts[:i])} is a value, not a table, in the base scene")
-        if not last and not isinstance(node, (dict, list)):
-            raise InputError(f"{path}: {where} is a value ({node!r}), not a table, in the base scene")
-    return created
-
-
-def _deepcopy(x):
-    if isinstance(x, dict):
-        return {k: _deepcopy(v) for k, v in x.items()}
-    if isinstance(x, list):
-        return [_deepcopy(v) for v in x]
-    return x
 
 
 def value_label(v):

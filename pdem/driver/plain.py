@@ -29,6 +29,56 @@ from .preflight import check_run_length
 from .runloop import RunLoop, prepare_output, resume_point
 
 
+def body_columns(sim):
+    """Units of the /series columns of the scene's rigid bodies and moved walls (none without):
+    per box ``body_<name>_x|y|z`` (centre [m]), ``body_<name>_force_x|y|z`` (force of the spheres
+    on it [N]), ``body_<name>_load`` (its force program's value now, along its direction [N]) or,
+    under displacement control, ``body_<name>_displacement`` (the prescribed one [m]); per wall
+    with a program ``wall_<name>_position`` [m], ``wall_<name>_force`` (along its axis [N]) and
+    ``wall_<name>_displacement`` [m]."""
+    cols = {}
+    moved = {(t, b) for t, b, _, _ in sim.motions}
+    for b, name in enumerate(sim.boxes.names if sim.boxes is not None else []):
+        for c in "xyz":
+            cols[f"body_{name}_{c}"] = "m"
+        for c in "xyz":
+            cols[f"body_{name}_force_{c}"] = "N"
+        if ("box", b) in moved:
+            cols[f"body_{name}_displacement"] = "m"
+        elif sim.boxes.loads[b] is not None:
+            cols[f"body_{name}_load"] = "N"
+    for t, w, _, _ in sim.motions:
+        if t == "wall":
+            name = sim.walls.names[w]
+            cols.update({f"wall_{name}_position": "m", f"wall_{name}_force": "N", f"wall_{name}_displacement": "m"})
+    return cols
+
+
+def body_sample(sim):
+    """The values of `body_columns` now (the same bits on every rank: boxes and walls are
+    replicated, their forces exact sums; collective)."""
+    row = {}
+    motion = {(t, b): m for t, b, m, _ in sim.motions}
+    boxes = sim.boxes
+    for b, name in enumerate(boxes.names if boxes is not None else []):
+        for k, c in enumerate("xyz"):
+            row[f"body_{name}_{c}"] = float(boxes.center[b, k])
+        for k, c in enumerate("xyz"):
+            row[f"body_{name}_force_{c}"] = float(boxes.contact_force[b, k])
+        if ("box", b) in motion:
+            row[f"body_{name}_displacement"] = motion["box", b].value(sim.time)
+        elif boxes.loads[b] is not None:
+            row[f"body_{name}_load"] = float(boxes.loads[b].value(sim.time))
+    if any(t == "wall" for t, _, _, _ in sim.motions):
+        wf = observables.wall_forces(sim)
+        for t, w, m, _ in sim.motions:
+            if t == "wall":
+                name, axis = sim.walls.names[w], int(sim.walls.axis[w])
+                row.update({f"wall_{name}_position": float(sim.walls.position[w]),
+                            f"wall_{name}_force": float(wf[w, axis]), f"wall_{name}_displacement": m.value(sim.time)})
+    return row
+
+
 def sample(sim):
     e = sim.energy()
     wf = observables.wall_forces(sim)
@@ -36,7 +86,8 @@ def sample(sim):
             "elastic_energy": e["elastic"], "contacts_per_particle": sim.contacts_per_particle(),
             "unbalanced_force": observables.unbalanced_force(sim), "bed_top": observables.bed_top(sim),
             "floor_force_z": float(wf[0, 2]) if len(wf) else 0.0, "potential_energy": e["potential"],
-            "total_energy": e["total"], "max_overlap_ratio": observables.max_overlap_ratio(sim)}
+            "total_energy": e["total"], "max_overlap_ratio": observables.max_overlap_ratio(sim),
+            **body_sample(sim)}
 
 
 def run_scene_file(path, doc, out_dir, comm, steps=None, fresh=False):
@@ -72,7 +123,8 @@ def run_scene_file(path, doc, out_dir, comm, steps=None, fresh=False):
              f"{len(sim.facets)} facets, {n_steps} steps, dt = {sim.dt:.3e} s")
     results = out / "results.h5"
     resumed = resume is not None
-    series = series_writer(results, RUN_SERIES, comm, restart_step=sim.step if resumed else None)
+    series = series_writer(results, {**RUN_SERIES, **body_columns(sim)}, comm,
+                           restart_step=sim.step if resumed else None)
     loop.flush.append(series)
     if comm.rank == 0:
         write_root_attrs(results, sim.spec, run["kind"], external_work=sim.moving_boundaries)

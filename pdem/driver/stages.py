@@ -29,6 +29,7 @@ with `Scene.add_sphere_columns(tables["particles"])` and `Scene.add_clump_tables
 tables["clump_members"])`; bonds travel in ``contacts/sphere_sphere``.
 """
 import time as _time
+import tomllib
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Callable
@@ -37,7 +38,7 @@ import numpy as np
 
 from ..version import __version__
 from ..io.checkpoint_state import restore_clock
-from ..build.config import run_settings
+from ..build.config import result_identity, run_settings
 from ..contact import stiffness_keys
 from ..errors import InputError
 from ..format.run import write_run_info
@@ -192,6 +193,19 @@ class Stage:
 
 
 # ---------------------------------------------------------------------------- the staged run
+def same_results(old_text, new_text):
+    """True if the scene texts ``old_text`` (a checkpoint's) and ``new_text`` give the same
+    trajectory: equal, or equal but for output-only keys (`pdem.build.config.result_identity`)."""
+    if old_text == new_text:
+        return True
+    if not isinstance(old_text, str):
+        return False
+    try:
+        return result_identity(tomllib.loads(old_text)) == result_identity(tomllib.loads(new_text))
+    except (TypeError, tomllib.TOMLDecodeError):
+        return False
+
+
 class StagedRun:
     """A run in stages on this process's ranks. Subclasses set ``NAME`` (the scene's table name,
     also the checkpoint meta key) and list their stages (`stage_list`); ``STAGES`` holds their
@@ -220,7 +234,7 @@ class StagedRun:
                 self.tables, self.meta, self.state = start
         else:
             self.tables, self.meta = read_checkpoint(resume)
-            if self.meta.get("scene_file") != self.scene_text or self.NAME not in self.meta:
+            if not same_results(self.meta.get("scene_file"), self.scene_text) or self.NAME not in self.meta:
                 raise CheckpointError(
                     resume, "cannot continue this scene from it: it was written for another scene file"
                 )
