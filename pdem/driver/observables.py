@@ -118,6 +118,22 @@ def box_gaps(sim, floor=0.0):
     return np.where(np.isfinite(top), np.maximum(base - top, 0.0), base - floor)
 
 
+def unique_contacts(sim, name, second, column):
+    """Collective: on rank 0 (keys [k, 2], values [k]) of the real contacts of kind ``name``,
+    each once, in key order (gid1, then ``second``: "gid2" or "index"), with the magnitudes of
+    their force ``column`` of `Simulation.contacts` ("force", "normal_force") [N]; None
+    elsewhere. A pair held by two ranks (straddling a slab edge) is counted once, so the arrays
+    do not depend on the rank count."""
+    c = sim.contacts(name)
+    key = np.stack([c["gid1"], c[second]], axis=1).astype(np.int64)
+    value = np.linalg.norm(c[column], axis=1)
+    keys, values = sim.comm.gather_rows(key), sim.comm.gather_rows(value)
+    if sim.comm.rank != 0:
+        return None
+    _, first = np.unique(keys[:, 0] * (1 << 32) + keys[:, 1], return_index=True)  # sorted by key
+    return keys[first], values[first]
+
+
 def contact_force_samples(sim):
     """Forces of every real contact, each once, in key order, on rank 0 (None elsewhere):
     ``sleeper_ballast`` |normal force| [N] of each sphere–box contact and ``sleeper_index``
@@ -128,13 +144,7 @@ def contact_force_samples(sim):
     for name, second in (("sphere_box", "index"), ("sphere_sphere", "gid2")):
         if sim.kind(name) is None:
             continue
-        c = sim.contacts(name)
-        key = np.stack([c["gid1"], c[second]], axis=1).astype(np.int64)
-        value = np.linalg.norm(c["normal_force"] if name == "sphere_box" else c["force"], axis=1)
-        keys, values = sim.comm.gather_rows(key), sim.comm.gather_rows(value)
-        if sim.comm.rank == 0:
-            _, first = np.unique(keys[:, 0] * (1 << 32) + keys[:, 1], return_index=True)  # sorted by key
-            out[name] = (keys[first], values[first])
+        out[name] = unique_contacts(sim, name, second, "normal_force" if name == "sphere_box" else "force")
     if sim.comm.rank != 0:
         return None
     res = {}

@@ -58,8 +58,8 @@ settlement, gap under each sleeper; with the beam the peak load on each sleeper)
 ``forces_every``-th and the last); ``preparation.h5`` and
 ``.png``; ``analysis/`` (`python -m analysis track`); ``summary.txt`` (stages, passages, wall
 time, throughput, load balance over the ranks, timing table) and ``scaling.json`` (the same,
-for `bench.scaling_model`); ParaView snapshots on schedule, at stage ends and at every
-recorded force distribution.
+for `bench.scaling_model`); ParaView snapshots (the spheres, walls and sleepers,
+`pdem.driver.snapshots`) on schedule, at stage ends and at every recorded force distribution.
 """
 import json
 import os
@@ -81,7 +81,7 @@ from ..boundaries.rail_beam import RailBeam, RailSection, SleeperRails
 from ..build.validate import boolean, number
 from .common.preparation import PREPARATION_DEFAULTS, PreparedRun, add_cloud, check_preparation, \
     pour_stage, refill_stage, remove_where, settle_stage, vibrate_stage
-from .track_record import PassageTracker, TrackWriter, sleeper_sample, write_force_record, write_sleepers
+from .track_record import PassageTracker, TrackWriter, sleeper_sample, write_force_record
 
 PREPARATION = ("pour", "vibrate", "settle", "refill")  # the pipeline's stages: compacted before the cut
 STAGES = PREPARATION + ("traffic",)
@@ -651,11 +651,6 @@ class TrackRun(PreparedRun):
     def snapshot(self, sim, stage_end=False):
         if self.snapped != sim.step:  # not twice at one step (a force record and the schedule)
             super().snapshot(sim, stage_end)
-
-    def after_snapshot(self, sim):
-        """The sleepers for ParaView, next to the spheres' snapshots: sleepers.pvd."""
-        if self.comm.rank == 0 and sim.boxes is not None:
-            write_sleepers(self.out, sim.step, sim.time, sim.boxes.center, sim.boxes.half)
 
     def stage_record(self, sim):
         return {**super().stage_record(sim), "balance": observables.rank_loads(sim)["imbalance"]}
