@@ -386,3 +386,27 @@ def test_forces_obey_newtons_third_law_and_contacts_touch(scene_run):
     moved = np.linalg.norm(vel[rows[:, 0]] - vel[rows[:, 1]], axis=1) * sim.last_dt
     touching = dist <= (radius[rows[:, 0]] + radius[rows[:, 1]] + moved) * (1 + 1e-12)
     assert np.all(touching | bond) and bond.any() and (~bond).sum() > 20, (~bond).sum()
+
+
+def test_a_scene_file_asks_for_the_contact_network(tmp_path):
+    """`pdem run` of a plain scene file: snapshots with walls; the contact network only with
+    run.snapshot_contacts = true; no clump or fragment field in a scene without clumps."""
+    from factories import TINY_DEPOSITION
+    from pdem_cli import run_pdem
+
+    for contacts in (False, True):
+        scene = tmp_path / f"scene_{contacts}.toml"
+        text = TINY_DEPOSITION.replace("steps = 400", "steps = 1600\nsnapshot_every = 800\n"
+                                       f"snapshot_contacts = {str(contacts).lower()}")
+        scene.write_text(text)
+        out = tmp_path / f"out_{contacts}"
+        run_pdem(1, scene, out)
+        indexes = {"snapshots.xmf", "snapshots_walls.xmf"} | ({"snapshots_contacts.xmf"} if contacts else set())
+        assert {p.name for p in out.glob("*.xmf")} == indexes
+        with h5py.File(out / "snapshots.h5", "r") as f:
+            assert sorted(f) == ["step_000000000000", "step_000000000800", "step_000000001600"]
+            g = f["step_000000001600"]
+            assert json.loads(g.attrs["fields"]) == ["angvel", "body_kind", "force"]
+            assert np.all(g["body_kind"][()] == 0) and len(g["walls/wall"]) == 5
+            if contacts:
+                assert len(g["contacts/normal_force"]) > 0 and np.all(g["contacts/normal_force"][()] > 0)
