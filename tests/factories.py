@@ -17,6 +17,9 @@
   (``STEEL``), initial overlaps allowed (the box cases start in contact on purpose).
 - ``clump_scene()``: rigid 8-sphere clumps and breakable grains thrown sideways in a box long
   along x (the slab axis), so that clumps cross slab edges, straddle them and bonds break.
+- ``snapshot_scene()``: the clump scene with one of every other kind of body a snapshot draws:
+  a fixed sphere, a facet and a box pushed off its centre so that it turns as it falls
+  (``SNAPSHOT_FIXED_GID``: the fixed sphere's gid).
 - ``TINY_DEPOSITION``: a tiny plain scene file (50 spheres falling into a box, 400 steps), the
   campaign tests' base scene.
 - ``oedometer_ci_doc(**changes)``: jobs/oedometer_ci.toml parsed, with [oedometer] keys replaced;
@@ -29,7 +32,7 @@ from pathlib import Path
 import numpy as np
 
 from pdem.bodies.clump_generators import ballast8, grain_cloud, shape_members
-from pdem.boundaries.loads import Haversine
+from pdem.boundaries.loads import Constant, Haversine
 from pdem.build.scene import Scene
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -218,6 +221,19 @@ def clump_scene(n_rigid=60, n_breakable=6):
     sc.add_wall("x", lx, "wall", sense=-1)
     sc.add_wall("y", 0.0, "wall", sense=1)
     sc.add_wall("y", ly, "wall", sense=-1)
+    return sc
+
+
+SNAPSHOT_FIXED_GID = 10_000
+
+
+def snapshot_scene():
+    lx, ly = CLUMP_BOX
+    sc = clump_scene()
+    sc.add_spheres([(0.05, 0.5 * ly, 0.24)], 0.006, "wall", fixed=True, first_gid=SNAPSHOT_FIXED_GID)
+    sc.add_facet([(0.0, 0.0, 0.30), (0.12, 0.0, 0.30), (0.0, ly, 0.32)], "wall")
+    sc.add_box((0.3, 0.5 * ly, 0.25), (0.05, 0.02, 0.01), "wall", mass=0.5, blocked="xyXZ",
+               load=Constant(2.0), load_point=(0.04, 0.0, 0.0))
     return sc
 
 

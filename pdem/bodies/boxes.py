@@ -25,7 +25,7 @@ torque and L about blocked global axes are held at zero (exact when the free rot
 principal axis, e.g. one free tilt). Its spheres use the contact kind ``sphere_oriented_box``
 (`pdem.contact.geometry.SphereOrientedBox`: the box contact in the box's axes, the box's velocity
 at the contact point); axis-aligned boxes keep ``sphere_box``.
-Checkpoints carry q, L, ω and R; snapshots show the box axis-aligned (orientation not written).
+Checkpoints carry q, L, ω and R; snapshots draw the box turned (`pdem.driver.snapshots`).
 A box with member spheres cannot rotate (refused).
 
 Storage: the rows the contact loop reads (`pdem.contact.geometry.SphereBox`, `SphereOrientedBox`):

@@ -52,6 +52,24 @@ def label_fragments(gid, mass, clump, bond_gid1, bond_gid2, clump_ids=None, clum
     order = np.argsort(gid, kind="stable")
     g, m, c = np.asarray(gid)[order], np.asarray(mass, np.float64)[order], np.asarray(clump)[order]
     n = len(g)
+    label, rigid_of = _labels(g, bond_gid1, bond_gid2, member_gid, member_clump)
+    roots, inverse, counts = np.unique(label, return_inverse=True, return_counts=True)
+    frag_mass = np.zeros(len(roots))
+    for k in range(n):  # gid order within each fragment: a fixed summation order
+        frag_mass[inverse[k]] += m[k]
+    if clump_ids is not None and len(clump_ids):
+        cm = dict(zip(np.asarray(clump_ids).tolist(), np.asarray(clump_mass, np.float64).tolist()))
+        for f, root in enumerate(roots):
+            if rigid_of[root] >= 0:
+                frag_mass[f] = cm[int(rigid_of[root])]
+    return counts.astype(np.int64), frag_mass, c[roots].astype(np.int64)
+
+
+def _labels(g, bond_gid1, bond_gid2, member_gid, member_clump):
+    """(label [n], rigid_of [n]) of the spheres of increasing gids ``g``: the index in ``g`` of
+    the smallest gid of each sphere's fragment, and the rigid clump each sphere is a member of
+    (-1: none)."""
+    n = len(g)
     a = [np.searchsorted(g, np.asarray(bond_gid1, np.int64))]
     b = [np.searchsorted(g, np.asarray(bond_gid2, np.int64))]
     rigid_of = np.full(n, -1, np.int64)
@@ -69,24 +87,13 @@ def label_fragments(gid, mass, clump, bond_gid1, bond_gid2, clump_ids=None, clum
         a.append(np.array(ra, np.int64))
         b.append(np.array(rb, np.int64))
         rigid_of[rows] = mc
-    label = components(n, np.concatenate(a).astype(np.int64), np.concatenate(b).astype(np.int64))
-    roots, inverse, counts = np.unique(label, return_inverse=True, return_counts=True)
-    frag_mass = np.zeros(len(roots))
-    for k in range(n):  # gid order within each fragment: a fixed summation order
-        frag_mass[inverse[k]] += m[k]
-    if clump_ids is not None and len(clump_ids):
-        cm = dict(zip(np.asarray(clump_ids).tolist(), np.asarray(clump_mass, np.float64).tolist()))
-        for f, root in enumerate(roots):
-            if rigid_of[root] >= 0:
-                frag_mass[f] = cm[int(rigid_of[root])]
-    return counts.astype(np.int64), frag_mass, c[roots].astype(np.int64)
+    return components(n, np.concatenate(a).astype(np.int64), np.concatenate(b).astype(np.int64)), rigid_of
 
 
-def fragments(sim):
-    """Collective: on rank 0 a dict ``n_members``, ``mass`` [kg], ``clump`` (one entry per
-    fragment, in order of the fragments' smallest gid), ``member_radius_min`` [m] (smallest
-    radius of a sphere in a clump, or of any sphere if none is) and ``n_bonds`` (intact bonds);
-    None on the other ranks."""
+def _gathered(sim, columns):
+    """Collective: on rank 0 the owned spheres' ``columns`` of every rank, the intact bonds (gid
+    pairs, each once: held by the owner of its first sphere) and the rigid clumps' tables
+    (``cid``, ``cmass``, members ``mgid``, ``mclump``); None on the other ranks."""
     p, comm = sim.particles, sim.comm
     nl = p.n_local
     law = sim.law
@@ -99,14 +106,35 @@ def fragments(sim):
         rows = rows[:0]
     g1, g2 = p.gid[c.i[rows]], p.gid[c.j[rows]]
     gather = comm.gather_rows
-    gid, mass, clump, radius = (gather(np.ascontiguousarray(a[:nl])) for a in (p.gid, p.mass, p.clump, p.radius))
-    b1, b2 = gather(np.ascontiguousarray(g1)), gather(np.ascontiguousarray(g2))
+    out = {k: gather(np.ascontiguousarray(getattr(p, k)[:nl])) for k in columns}
+    out["b1"], out["b2"] = gather(np.ascontiguousarray(g1)), gather(np.ascontiguousarray(g2))
     ct, mt = sim.clumps.table() if sim.clumps is not None else (empty_clump_table(), empty_member_table())
-    cid, cmass = gather(ct["id"]), gather(ct["mass"])
-    mgid, mclump = gather(mt["gid"]), gather(mt["clump"])
-    if comm.rank != 0:
+    out["cid"], out["cmass"] = gather(ct["id"]), gather(ct["mass"])
+    out["mgid"], out["mclump"] = gather(mt["gid"]), gather(mt["clump"])
+    return out if comm.rank == 0 else None
+
+
+def fragments(sim):
+    """Collective: on rank 0 a dict ``n_members``, ``mass`` [kg], ``clump`` (one entry per
+    fragment, in order of the fragments' smallest gid), ``member_radius_min`` [m] (smallest
+    radius of a sphere in a clump, or of any sphere if none is) and ``n_bonds`` (intact bonds);
+    None on the other ranks."""
+    d = _gathered(sim, ("gid", "mass", "clump", "radius"))
+    if d is None:
         return None
-    n, m, cl = label_fragments(gid, mass, clump, b1, b2, cid, cmass, mgid, mclump)
+    gid, clump, radius, b1 = d["gid"], d["clump"], d["radius"], d["b1"]
+    n, m, cl = label_fragments(gid, d["mass"], clump, b1, d["b2"], d["cid"], d["cmass"], d["mgid"], d["mclump"])
     in_clump = clump >= 0
     rmin = float(radius[in_clump].min()) if in_clump.any() else float(radius.min())
     return {"n_members": n, "mass": m, "clump": cl, "member_radius_min": rmin, "n_bonds": len(b1)}
+
+
+def fragment_ids(sim):
+    """Collective: on rank 0 the fragment of every sphere in increasing gid, named by the
+    smallest gid of its fragment (int64 [n]); None on the other ranks."""
+    d = _gathered(sim, ("gid",))
+    if d is None:
+        return None
+    g = np.sort(d["gid"], kind="stable")
+    label, _ = _labels(g, d["b1"], d["b2"], d["mgid"], d["mclump"])
+    return g[label]

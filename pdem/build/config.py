@@ -9,8 +9,9 @@ Values are typed strictly: numbers are numbers (``true`` is not 1), booleans are
                    dt_safety, dt_interval, pwave_factor, check_interval, max_overlap_ratio,
                    energy_check, allow_initial_overlap, slab_axis ("x"|"y"|"z"),
                    domain ([[x, y, z], [x, y, z]] [m]: a body outside stops the run)
-    [run]          steps, progress_every, output_every, snapshot_every, checkpoint_every,
-                   checkpoint_every_s, checkpoint_keep, kind
+    [run]          steps, progress_every, output_every, snapshot_every, snapshot_contacts (true:
+                   the contact network in the snapshots), checkpoint_every, checkpoint_every_s,
+                   checkpoint_keep, kind
     [materials.NAME] density [kg/m³] and the law's keys (linear: young [Pa], poisson [-],
                    friction_angle [rad]; viscous and hertz_mindlin: `pdem.contact.viscous`,
                    `pdem.contact.hertz_mindlin`)
@@ -65,7 +66,8 @@ from .validate import boolean, number, vector3
 
 SIMULATION_KEYS = {f.name for f in fields(SimulationSettings)}  # the [simulation] table: the settings
 RUN_DEFAULTS = {"steps": 1000, "progress_every": 1000, "output_every": 100, "snapshot_every": 0, "checkpoint_every": 0,
-                "checkpoint_every_s": 0.0, "checkpoint_keep": 3, "kind": "scene", "fragments_every": 0}
+                "checkpoint_every_s": 0.0, "checkpoint_keep": 3, "kind": "scene", "fragments_every": 0,
+                "snapshot_contacts": False}
 WALL_KEYS = {"axis", "position", "material", "sense", "velocity", "name"}
 FACET_KEYS = {"vertices", "material", "velocity"}
 SPHERE_KEYS = {"pos", "radius", "material", "fixed", "vel"}
@@ -140,6 +142,8 @@ def run_settings(doc):
         run[k] = number(f"run.{k}", run[k], 0, integer=True)
     run["checkpoint_every_s"] = number("run.checkpoint_every_s", run["checkpoint_every_s"], 0.0,
                                        allow="a number of seconds >= 0 (0: off)")
+    if not isinstance(run["snapshot_contacts"], bool):
+        raise InputError(f"run.snapshot_contacts = {run['snapshot_contacts']!r}: must be true or false")
     if not isinstance(run["kind"], str):
         raise InputError(f"run.kind = {run['kind']!r}: must be a string")
     return run

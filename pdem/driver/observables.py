@@ -150,6 +150,20 @@ def box_end_gaps(sim, floor=0.0):
         for e, sign in enumerate((-1.0, 1.0)):
             empty[k, e] = bx.center[k, 2] + bx.rotation[k, 2] @ np.array([0.0, sign * 2.0 * h[1] / 3.0, -h[2]]) - floor
     return np.where(np.isfinite(top), np.maximum(base - top, 0.0), empty)
+def unique_contacts(sim, name, second, column):
+    """Collective: on rank 0 (keys [k, 2], values [k]) of the real contacts of kind ``name``,
+    each once, in key order (gid1, then ``second``: "gid2" or "index"), with the magnitudes of
+    their force ``column`` of `Simulation.contacts` ("force", "normal_force") [N]; None
+    elsewhere. A pair held by two ranks (straddling a slab edge) is counted once, so the arrays
+    do not depend on the rank count."""
+    c = sim.contacts(name)
+    key = np.stack([c["gid1"], c[second]], axis=1).astype(np.int64)
+    value = np.linalg.norm(c[column], axis=1)
+    keys, values = sim.comm.gather_rows(key), sim.comm.gather_rows(value)
+    if sim.comm.rank != 0:
+        return None
+    _, first = np.unique(keys[:, 0] * (1 << 32) + keys[:, 1], return_index=True)  # sorted by key
+    return keys[first], values[first]
 
 
 def contact_force_samples(sim):
@@ -163,13 +177,7 @@ def contact_force_samples(sim):
     for name, second in (("sphere_box", "index"), ("sphere_oriented_box", "index"), ("sphere_sphere", "gid2")):
         if sim.kind(name) is None:
             continue
-        c = sim.contacts(name)
-        key = np.stack([c["gid1"], c[second]], axis=1).astype(np.int64)
-        value = np.linalg.norm(c["force"] if name == "sphere_sphere" else c["normal_force"], axis=1)
-        keys, values = sim.comm.gather_rows(key), sim.comm.gather_rows(value)
-        if sim.comm.rank == 0:
-            _, first = np.unique(keys[:, 0] * (1 << 32) + keys[:, 1], return_index=True)  # sorted by key
-            out[name] = (keys[first], values[first])
+        out[name] = unique_contacts(sim, name, second, "force" if name == "sphere_sphere" else "normal_force")
     if sim.comm.rank != 0:
         return None
     res = {}

@@ -21,9 +21,9 @@ from ..build.config import run_settings, scene_from_dict
 from ..checks.diagnostics import check_finite
 from ..format.run import write_run_info
 from ..io.checkpoint import CheckpointError, read_checkpoint
-from ..io.snapshots import SnapshotWriter
 from . import observables
 from .fragments import FragmentRecorder
+from .snapshots import open_snapshots, write_snapshot
 from .results import finite_row, series_writer, write_root_attrs
 from .preflight import check_run_length
 from .runloop import RunLoop, prepare_output, resume_point
@@ -128,9 +128,7 @@ def run_scene_file(path, doc, out_dir, comm, steps=None, fresh=False):
     loop.flush.append(series)
     if comm.rank == 0:
         write_root_attrs(results, sim.spec, run["kind"], external_work=sim.moving_boundaries)
-    snaps = (SnapshotWriter(out, comm=comm, append=resumed, restart_step=sim.step if resumed else None,
-                            log=lambda m: print(m, flush=True))
-             if run["snapshot_every"] else None)
+    snaps = open_snapshots(out, comm, run, restart_step=sim.step if resumed else None)
     frags = FragmentRecorder(results, comm, every=run["fragments_every"]) if run["fragments_every"] else None
 
     def on_step(sim):
@@ -171,8 +169,3 @@ def run_scene_file(path, doc, out_dir, comm, steps=None, fresh=False):
     loop.close()
     return loop.status
 
-
-def write_snapshot(snaps, sim):
-    p = sim.particles
-    nl = p.n_local
-    snaps.write(sim.step, sim.time, p.gid[:nl], p.pos[:nl], p.radius[:nl], p.vel[:nl])

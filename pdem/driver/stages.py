@@ -43,12 +43,12 @@ from ..contact import stiffness_keys
 from ..errors import InputError
 from ..format.run import write_run_info
 from ..io.checkpoint import CheckpointError, read_checkpoint
-from ..io.snapshots import SnapshotWriter
 from ..build.scene import sphere_columns
 from ..simulation import Timers
 from ..bodies.state import FIELDS
 from . import observables
 from .preflight import check_run_length
+from .snapshots import open_snapshots
 from .runloop import RunLoop, prepare_output, resume_point
 
 
@@ -245,10 +245,7 @@ class StagedRun:
                           f"written by pdem {self.meta.get('pdem_version')})")
             self.loop.last_ckpt_step = int(self.meta["step"])
         self.restart_step = int(self.meta["step"]) if resume is not None else None
-        every = self.run_cfg["snapshot_every"]
-        self.snaps = (SnapshotWriter(self.out, comm=comm, append=self.restart_step is not None,
-                                     restart_step=self.restart_step, log=lambda m: print(m, flush=True))
-                      if every else None)
+        self.snaps = open_snapshots(self.out, comm, self.run_cfg, restart_step=self.restart_step)
         self.timers = Timers()  # one timing table for the whole run
         self.loop.extra_meta = lambda: {self.NAME: self.checkpoint_state()}
         self.open_outputs()

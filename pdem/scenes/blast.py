@@ -55,7 +55,7 @@ from ..bodies.boxes import blocked_mask
 from ..build.config import check_keys, run_settings, scene_from_dict
 from ..contact import viscous
 from ..driver import observables
-from ..driver.plain import write_snapshot
+from ..driver.snapshots import write_snapshot
 from ..driver.results import series_writer, write_root_attrs
 from ..driver.stages import (
     Stage,

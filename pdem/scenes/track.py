@@ -64,8 +64,8 @@ settlement of each end, tilts, the void under each end third, with the beam the 
 ``forces_every``-th and the last); ``preparation.h5`` and
 ``.png``; ``analysis/`` (`python -m analysis track`); ``summary.txt`` (stages, passages, wall
 time, throughput, load balance over the ranks, timing table) and ``scaling.json`` (the same,
-for `bench.scaling_model`); ParaView snapshots on schedule, at stage ends and at every
-recorded force distribution.
+for `bench.scaling_model`); ParaView snapshots (the spheres, walls and sleepers,
+`pdem.driver.snapshots`) on schedule, at stage ends and at every recorded force distribution.
 """
 import json
 import os
@@ -89,8 +89,7 @@ from .common.bounds import plausible
 from ..bodies.boxes import principal_inertia
 from .common.preparation import PREPARATION_DEFAULTS, PreparedRun, add_cloud, check_preparation, \
     pour_stage, refill_stage, remove_where, settle_stage, vibrate_stage
-from .track_record import PassageTracker, TrackWriter, end_heights, sleeper_sample, tilts, write_force_record, \
-    write_sleepers
+from .track_record import PassageTracker, TrackWriter, end_heights, sleeper_sample, tilts, write_force_record
 
 PREPARATION = ("pour", "vibrate", "settle", "refill")  # the pipeline's stages: compacted before the cut
 STAGES = PREPARATION + ("traffic",)
@@ -791,11 +790,6 @@ class TrackRun(PreparedRun):
     def snapshot(self, sim, stage_end=False):
         if self.snapped != sim.step:  # not twice at one step (a force record and the schedule)
             super().snapshot(sim, stage_end)
-
-    def after_snapshot(self, sim):
-        """The sleepers for ParaView, next to the spheres' snapshots: sleepers.pvd."""
-        if self.comm.rank == 0 and sim.boxes is not None:
-            write_sleepers(self.out, sim.step, sim.time, sim.boxes.center, sim.boxes.half)
 
     def stage_record(self, sim):
         return {**super().stage_record(sim), "balance": observables.rank_loads(sim)["imbalance"]}

@@ -18,9 +18,6 @@
 - `write_force_record` writes ``/forces/<label>``: the normal force of every sleeper–ballast
   contact (with its sleeper) and the force of every ballast–ballast contact
   (`observables.contact_force_samples`).
-- `write_sleepers` writes the sleepers for ParaView next to the spheres' snapshots:
-  ``sleepers/sleepers_<step>.vtk`` (legacy VTK, one hexahedron per sleeper, with its index) and
-  the time series ``sleepers.pvd`` (open it in ParaView with snapshots.xmf).
 
 Only rank 0 writes; the others go through the same calls (the collectives inside them).
 """
@@ -211,33 +208,3 @@ def write_force_record(path, label, sim):
     forces = observables.contact_force_samples(sim)
     if sim.comm.rank == 0:
         schema.write_forces(path, label, step=sim.step, time=sim.time, replace=True, **forces)
-
-
-def write_sleepers(out, step, time, centres, halves):
-    """``out/sleepers/sleepers_<step>.vtk`` (the boxes as hexahedra) and ``out/sleepers.pvd``
-    listing every such file with its time (rank 0; a file of the same step is replaced)."""
-    import json
-    from pathlib import Path
-
-    d = Path(out) / "sleepers"
-    d.mkdir(exist_ok=True)
-    corners = np.array([[-1, -1, -1], [1, -1, -1], [1, 1, -1], [-1, 1, -1],
-                        [-1, -1, 1], [1, -1, 1], [1, 1, 1], [-1, 1, 1]], float)
-    n = len(centres)
-    halves = np.broadcast_to(np.asarray(halves, float), (n, 3))
-    pts = (np.asarray(centres)[:, None, :] + corners[None] * halves[:, None, :]).reshape(-1, 3)
-    lines = ["# vtk DataFile Version 3.0", f"pdem sleepers step {int(step)} time {float(time)!r}", "ASCII",
-             "DATASET UNSTRUCTURED_GRID", f"POINTS {8 * n} double"]
-    lines += [" ".join(repr(float(v)) for v in p) for p in pts]
-    lines += [f"CELLS {n} {9 * n}"] + [" ".join(["8"] + [str(8 * k + i) for i in range(8)]) for k in range(n)]
-    lines += [f"CELL_TYPES {n}"] + ["12"] * n
-    lines += [f"CELL_DATA {n}", "SCALARS sleeper int 1", "LOOKUP_TABLE default"] + [str(k) for k in range(n)]
-    name = f"sleepers_{int(step):012d}.vtk"
-    (d / name).write_text("\n".join(lines) + "\n")
-    index_path = d / "index.json"
-    index = json.loads(index_path.read_text()) if index_path.exists() else {}
-    index[name] = float(time)
-    index_path.write_text(json.dumps(index, sort_keys=True))
-    rows = "".join(f'    <DataSet timestep="{t!r}" file="sleepers/{f}"/>\n' for f, t in sorted(index.items()))
-    (Path(out) / "sleepers.pvd").write_text('<?xml version="1.0"?>\n<VTKFile type="Collection" version="0.1">\n'
-                                            f"  <Collection>\n{rows}  </Collection>\n</VTKFile>\n")

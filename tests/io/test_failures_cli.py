@@ -152,6 +152,7 @@ def test_exception_on_one_rank_ends_the_job(warm, tmp_path, n_ranks, kind, statu
     (("damping = 0.3", "damping = 0.3\nallow_initial_overlap = \"false\""), ["allow_initial_overlap", "true or false"]),
     (("progress_every = 0", "progress_every = 0\ncheckpoint_every_s = \"abc\""), ["checkpoint_every_s", "'abc'"]),
     (("progress_every = 0", "progress_every = 0\ncheckpoint_every_s = nan"), ["checkpoint_every_s", "nan"]),
+    (("progress_every = 0", "progress_every = 0\nsnapshot_contacts = 1"), ["snapshot_contacts = 1", "true or false"]),
     (("seed = 1", "seed = -1"), ["deposition.seed", "-1"]),
 ])
 def test_bad_input_once_status_2(tmp_path, n_ranks, edit, words):

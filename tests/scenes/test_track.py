@@ -29,7 +29,7 @@ from pdem.format import schema
 from pdem.format.groups import read_track
 from analysis.track import analyse_track, passage_table
 from pdem.driver import observables
-from pdem.scenes.track_record import PassageTracker, TrackWriter, write_sleepers
+from pdem.scenes.track_record import PassageTracker, TrackWriter
 from pdem.errors import InputError
 from pdem.boundaries.facets import facet_row
 from pdem.io.checkpoint import list_checkpoints, read_checkpoint
@@ -235,19 +235,6 @@ def test_prepared_beds_are_matched_on_the_preparation_tables():
     b = doc()
     b["materials"]["rubber"] = dict(b["materials"]["rubber"], young=2.8e6)
     assert same_preparation(a, b).startswith("materials.rubber = {")
-
-
-def test_sleepers_for_paraview(tmp_path):
-    centres, halves = np.array([[0.3, 0.0, 0.45], [0.9, 0.0, 0.44]]), np.array([0.15, 1.3, 0.1])
-    write_sleepers(tmp_path, 100, 0.5, centres, halves)
-    write_sleepers(tmp_path, 200, 1.0, centres - [0, 0, 0.01], halves)
-    text = (tmp_path / "sleepers" / "sleepers_000000000200.vtk").read_text().splitlines()
-    i = text.index("POINTS 16 double")
-    pts = np.array([[float(v) for v in line.split()] for line in text[i + 1: i + 17]])
-    assert np.allclose(pts.min(axis=0), [0.15, -1.3, 0.33]) and np.allclose(pts.max(axis=0), [1.05, 1.3, 0.54])
-    assert "CELL_TYPES 2" in text and text.count("12") == 2
-    pvd = (tmp_path / "sleepers.pvd").read_text()
-    assert 'timestep="0.5" file="sleepers/sleepers_000000000100.vtk"' in pvd and "sleepers_000000000200.vtk" in pvd
 
 
 # ---------------------------------------------------------------------------- end to end

@@ -48,7 +48,7 @@ import numpy as np
 
 from .bounds import PREPARATION_BOUNDS, plausible
 from ...driver import observables
-from ...driver.plain import write_snapshot
+from ...driver.snapshots import write_snapshot
 from ...driver.results import series_writer
 from ...driver.stages import Stage, StagedRun, append_bodies, append_tables, clump_tables, keep_tables, \
     next_free_clump
@@ -179,7 +179,7 @@ class PreparedRun(StagedRun):
     """A `StagedRun` whose first stages prepare a bed (the factories below, in the scene's
     order): ``self.c`` is the scene's table with the pipeline's keys checked. It writes
     ``preparation.h5`` and the snapshots. A scene may add `open_results`/`close_results` (its
-    results files), `bodies_note` (its rigid bodies in the stage-end line) and `after_snapshot`."""
+    results files) and `bodies_note` (its rigid bodies in the stage-end line)."""
 
     def open_results(self):
         """Open the scene's own results writers (after preparation.h5)."""
@@ -190,9 +190,6 @@ class PreparedRun(StagedRun):
     def bodies_note(self, sim):
         """Text appended to the stage-end line about the rigid bodies (e.g. the sleeper bottom)."""
         return ""
-
-    def after_snapshot(self, sim):
-        """Written with every snapshot of the spheres (e.g. the rigid bodies)."""
 
     def sleeper_z(self, sim):
         """Mean centre height of the rigid bodies [m] (0 before they are placed: the results hold no
@@ -252,9 +249,8 @@ class PreparedRun(StagedRun):
             self.write_snapshot(sim)
 
     def write_snapshot(self, sim):
-        """One ParaView snapshot of the spheres (and what `after_snapshot` adds)."""
+        """One ParaView snapshot (spheres, walls, facets, boxes: `pdem.driver.snapshots`)."""
         write_snapshot(self.snaps, sim)
-        self.after_snapshot(sim)
 
     def stage_done(self, sim, name):
         """The stage-end line and snapshot (every stage of a prepared run)."""
