@@ -9,6 +9,9 @@ output directory, a checkpoint or results file that cannot be continued from), 3
 SIGTERM/SIGUSR1 after writing a checkpoint (`pdem.io.signals`), 4 unstable or runaway, 5 a
 write failed (disk full) or memory ran out.
 
+Rank 0 writes what it prints, from the start of the run to the end of its post-processing, also
+to ``OUT/log.txt`` (`pdem.driver.runlog`; appended to when a run resumes).
+
 After a successful run, rank 0 launches the post-processing the run declared in its files (a
 staged scene's run_info.json, `pdem.format.run`): ``python -m analysis summary OUT`` (in this
 process), which writes summary.txt, preparation.png and analysis/. Its exit status is printed;
@@ -97,13 +100,20 @@ def main(argv=None):
             return EXIT_INPUT_ERROR
         out = args.out or str(Path("runs") / Path(args.scene).stem)
 
+        from .driver import runlog
+
         def run():
             configure_threads(comm)
             return run_file(args.scene, out, steps=args.steps, fresh=args.fresh, comm=comm)
 
-        status = run_guarded(comm, run)
-        if status == 0 and comm.rank == 0:
-            post_process(out)
+        if comm.rank == 0:
+            runlog.start(argv)  # OUT/log.txt: what rank 0 prints, from here to the post-processing
+        try:
+            status = run_guarded(comm, run)
+            if status == 0 and comm.rank == 0:
+                post_process(out)
+        finally:
+            runlog.stop()
         return status
     return 0
 

@@ -50,7 +50,7 @@ def run_scene_file(path, doc, out_dir, comm, steps=None, fresh=False):
     scene, run = scene_from_dict(doc), run_settings(doc)
     if steps is None:
         check_run_length(f"run.steps = {run['steps']}", run["steps"])
-    out = prepare_output(comm, out_dir)
+    out = prepare_output(comm, out_dir, fresh)
     t_start = _time.perf_counter()
     loop = RunLoop(comm, out, run, path, Path(path).read_text())
     resume = resume_point(comm, loop.ckdir, fresh)

@@ -172,7 +172,10 @@ class Stage:
     - ``max_steps``: at most this many steps (default: until ``until``);
     - ``close(sim)``: what is done at its end, before its checkpoint;
     - ``record(sim) -> dict``: extra entries of its summary row (JSON-able);
-    - ``saved(path)``: what is done with its stage-end checkpoint file (collective).
+    - ``saved(path)``: what is done with its stage-end checkpoint file (collective);
+    - ``length``: (simulated seconds [s], exact) if known before the stage opens: exact (it ends
+      then) or at most that (it ends earlier on a criterion); None (default) if unknown. For the
+      whole-run ETA of the progress lines only.
     """
 
     name: str
@@ -184,6 +187,7 @@ class Stage:
     close: Callable = nothing
     record: Callable = no_record
     saved: Callable = nothing
+    length: tuple = None
 
     def then(self, prepare=None, close=None):
         """This stage with ``prepare`` and/or ``close`` run after its own."""
@@ -205,7 +209,7 @@ class StagedRun:
         self.stages = self.stage_list()
         self.STAGES = tuple(stage.name for stage in self.stages)
         self.t_start = _time.perf_counter()
-        self.out = prepare_output(comm, out_dir)
+        self.out = prepare_output(comm, out_dir, fresh)
         self.scene_text = Path(path).read_text()
         self.loop = RunLoop(comm, self.out, self.run_cfg, path, self.scene_text)
         self.state = {"stage": 0, "started": False, "stage_t0": 0.0, "next_gid": 0, "stages": [],
@@ -294,8 +298,11 @@ class StagedRun:
                 n_steps = min(n_steps, max(self.stop_step - sim.step, 0))
             check_run_length(f"stage {stage.name}: its end at t = {t_end:.6g} s at dt = {sim.dt:.4g} s",
                              min(eta_step - sim.step, n_steps))
+            k, n = self.state["stage"], len(self.stages)
+            later = [s.length or (None, False) for s in self.stages[k + 1:]]
+            bounded = until is not None and not (stage.length and stage.length[1])
             outcome = self.loop.advance(sim, n_steps, on_step=on_step, until=until, until_every=every,
-                                        last_step=eta_step)
+                                        last_step=eta_step, stage=(f"stage {k + 1}/{n} {stage.name}", bounded, later))
             if outcome == "signal":
                 break
             if outcome == "done" and self.stop_step is not None and sim.step >= self.stop_step:

@@ -351,7 +351,7 @@ class BoxTestRun(PreparedRun):
             stages.append(self.stiffen_stage())
         stages.append(Stage("load", lambda tables: self.stage_scene(tables, loaded=True), self.load_program,
                             open=self.open_load, close=lambda sim: self.stage_done(sim, "load"),
-                            record=self.stage_record))
+                            record=self.stage_record, length=(self.c["cycles"] / self.c["frequency"], False)))
         if self.c["base"] == "two_sided":
             stages = [stage.then(prepare=self.open_base) for stage in stages]
         return stages

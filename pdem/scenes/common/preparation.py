@@ -291,7 +291,8 @@ def settle_stage(run, scene, name="settle", open=keep_tables, at_rest=always):
         run.stage_done(sim, name)
         run.prep.append(run.prep_sample(sim))
 
-    return Stage(name, scene, program, open=open, close=close, record=run.stage_record)
+    return Stage(name, scene, program, open=open, close=close, record=run.stage_record,
+                 length=(c["settle_max_time"], False))
 
 
 def pour_stage(run, scene, fill, at_rest=always):
@@ -334,4 +335,4 @@ def vibrate_stage(run, scene, trim=keep_tables):
         run.prep.append(run.prep_sample(sim))
 
     return Stage("vibrate", scene, program, open=trim, prepare=prepare, close=close, record=run.stage_record,
-                 max_steps=0 if c["vibration_time"] == 0 else 10**15)
+                 max_steps=0 if c["vibration_time"] == 0 else 10**15, length=(c["vibration_time"], True))
