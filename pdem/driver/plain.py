@@ -19,7 +19,7 @@ from ..format.schema import RUN_SERIES, fragment_label
 from ..version import __version__
 from ..build.config import run_settings, scene_from_dict
 from ..checks.diagnostics import check_finite
-from ..format.run import write_run_info
+from ..format.run import scene_facts, write_run_info
 from ..io.checkpoint import CheckpointError, read_checkpoint
 from ..io.snapshots import SnapshotWriter
 from . import observables
@@ -114,7 +114,7 @@ def run_scene_file(path, doc, out_dir, comm, steps=None, fresh=False):
         wall_s = _time.perf_counter() - t_start
         write_run_info(out, summary="scene", title="scene", scene_file=str(path), ranks=comm.size, wall_s=wall_s,
                        about=about, stages=[], stage_columns=[], preparation=None, notes=[],
-                       timing=sim.timing_table())
+                       timing=sim.timing_table(), pdem_version=__version__, **scene_facts(doc))
         print(f"wrote {results}{', snapshots.xmf' if snaps else ''} (total {wall_s:.1f} s)", flush=True)
     loop.close()
     return loop.status

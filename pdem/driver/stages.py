@@ -40,7 +40,7 @@ from ..io.checkpoint_state import restore_clock
 from ..build.config import run_settings
 from ..contact import stiffness_keys
 from ..errors import InputError
-from ..format.run import write_run_info
+from ..format.run import scene_facts, write_run_info
 from ..io.checkpoint import CheckpointError, read_checkpoint
 from ..io.snapshots import SnapshotWriter
 from ..build.scene import sphere_columns
@@ -279,7 +279,8 @@ class StagedRun:
         """Rank 0 at the end of the last stage: the run's account for its post-processing
         (run_info.json, `pdem.format.run`; ``facts`` are the scene's entries)."""
         write_run_info(self.out, scene_file=str(self.path), ranks=self.comm.size, wall_s=wall_s,
-                       stages=self.state["stages"], timing=sim.timing_table(), **facts)
+                       stages=self.state["stages"], timing=sim.timing_table(), pdem_version=__version__,
+                       **scene_facts(self.doc), **facts)
 
     # ------------------------------------------------------------------ the loop
     def run(self):

@@ -635,7 +635,7 @@ class BlastRun(StagedRun):
         c = self.c
         super().finish(sim, wall_s, summary="blast", title="blast layer",
                        about=[f"prepared layer: {self.state['prepared']}"],
-                       stage_columns=[("plate_z", "plate z [m]", ".5f")],
+                       stage_columns=[("plate_z", "plate centre z [m]", ".5f")],
                        preparation={"stages": list(self.STAGES), "body": "plate centre"},
                        notes=[f"impulse F0 = {c['F0']:g} N over tau = {c['tau']:g} s, {c['duration'] * 1e3:g} ms "
                               "recorded"],

@@ -393,7 +393,10 @@ class BoxTestRun(PreparedRun):
         sim.max_overlap_ratio = max(sim.max_overlap_ratio, 1.0)
 
     def bodies_note(self, sim):
-        return "" if sim.boxes is None else f", sleeper bottom {sim.boxes.center[0, 2] - sim.boxes.half[0, 2]:.4f} m"
+        if sim.boxes is None:
+            return ""
+        z = sim.boxes.center[0, 2]
+        return f", sleeper centre z {z:.4f} m (bottom {z - sim.boxes.half[0, 2]:.4f} m)"
 
     # ------------------------------------------------------------------ preparation in the box
     def pour(self, tables):
@@ -524,6 +527,6 @@ class BoxTestRun(PreparedRun):
     def finish(self, sim, wall_s):
         c = self.c
         super().finish(sim, wall_s, summary="box_test", title="box test", about=[],
-                       stage_columns=[("sleeper_z", "sleeper z [m]", ".4f")],
+                       stage_columns=[("sleeper_z", "sleeper centre z [m]", ".4f")],
                        preparation={"stages": list(self.STAGES), "body": "sleeper centre"},
                        notes=[f"cycles {c['f_min']:g} <-> {c['f_max']:g} N at {c['frequency']:g} Hz"])
