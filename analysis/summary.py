@@ -110,10 +110,10 @@ def summary_lines(result: BoxAnalysis) -> list[str]:
     lines += ["", "fits of the permanent settlement S(N), N = cycle:"]
     if result.log_fit is not None:
         f = result.log_fit
-        lines.append(f"  S = a + b ln N : a = {f.a:.6e} m, b = {f.b:.6e} m, R^2 = {f.r2:.6f}")
+        lines.append(f"  S = a + b ln N : a = {f.a * 1e3:.4f} mm, b = {f.b * 1e3:.4f} mm, R^2 = {f.r2:.6f}")
     if result.power_fit is not None:
         f = result.power_fit
-        lines.append(f"  S = S1 N^b     : S1 = {f.s1:.6e} m, b = {f.b:.6f}, R^2 = {f.r2:.6f}")
+        lines.append(f"  S = S1 N^b     : S1 = {f.s1 * 1e3:.4f} mm, b = {f.b:.6f}, R^2 = {f.r2:.6f}")
     lines += [f"  {note}" for note in result.notes]
     return lines
 

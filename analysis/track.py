@@ -43,8 +43,10 @@ import numpy as np
 from pdem.format.groups import ForceRecord, TrackRecord, read_track
 from pdem.format.read import results_file
 
+from .settlement import MIN_FIT_POINTS
+
 HANGING_GAP = 1e-4   # [m] a gap above this (0.1 mm) counts as a hanging sleeper
-MIN_FIT_PASSAGES = 5  # passages needed before settlement is fitted against N
+MIN_FIT_PASSAGES = MIN_FIT_POINTS  # passages needed before settlement is fitted against N
 MAX_LINES = 12       # passages drawn as lines (evenly chosen, always the first and last)
 MM, KN = 1e3, 1e-3
 QUANTILES = (0.5, 0.95, 0.99)
@@ -416,6 +418,7 @@ def plot_passages(result: TrackAnalysis, path) -> Path:
 def plot_voids(result: TrackAnalysis, path) -> Path:
     """Gap under each sleeper per passage, and the mean, largest gap and hanging sleepers."""
     from matplotlib.figure import Figure
+    from matplotlib.ticker import MaxNLocator
 
     from .figures import save
 
@@ -439,7 +442,8 @@ def plot_voids(result: TrackAnalysis, path) -> Path:
     ax_h = ax_p.twinx()
     ax_h.step(passages, t["hanging"], where="mid", color="C3", label="hanging sleepers")
     ax_h.set_ylabel("hanging sleepers [-]", color="C3")
-    ax_p.set(xlabel="passage [-]", ylabel="gap [mm]", title="Voids per passage")
+    ax_p.xaxis.set_major_locator(MaxNLocator(integer=True))
+    ax_p.set(xlabel="passage N [-]", ylabel="gap [mm]", title="Voids per passage")
     ax_p.grid(True, alpha=0.3)
     h1, l1 = ax_p.get_legend_handles_labels()
     h2, l2 = ax_h.get_legend_handles_labels()

@@ -108,7 +108,7 @@ def run_scene_file(path, doc, out_dir, comm, steps=None, fresh=False):
         rate = n_total * (sim.step - step0) / loop_s if loop_s > 0 else 0.0
         about = [f"spheres: {n_total}", f"steps: {sim.step}", f"simulated time: {sim.time:.6g} s",
                  f"final dt: {sim.dt:.4g} s", f"contacts per particle: {last['contacts_per_particle']:.3f}",
-                 f"unbalanced force ratio: {last['unbalanced_force']:.4g}", f"bed top: {last['bed_top']:.5g} m",
+                 f"unbalanced force ratio: {last['unbalanced_force']:.4g}", f"bed top: {1e3 * last['bed_top']:.2f} mm",
                  f"force on floor z: {last['floor_force_z']:.6g} N", f"loop wall time: {loop_s:.2f} s",
                  f"throughput: {rate / 1e6:.3f} M particle-steps/s"]
         wall_s = _time.perf_counter() - t_start
