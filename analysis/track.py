@@ -43,6 +43,7 @@ import numpy as np
 from pdem.format.groups import ForceRecord, TrackRecord, read_track
 from pdem.format.read import results_file
 
+from .figures import default_out
 from .settlement import MIN_FIT_POINTS
 
 HANGING_GAP = 1e-4   # [m] a gap above this (0.1 mm) counts as a hanging sleeper
@@ -527,7 +528,7 @@ def run_track(run_or_file, out=None, hanging_gap=HANGING_GAP) -> list[Path]:
     """Analyse a track run: track_*.png, track.txt, track.json."""
     path = results_file(run_or_file)
     result = analyse_track(read_track(path), hanging_gap=hanging_gap)
-    out = Path(out) if out is not None else path.with_name(path.stem + "-analysis")
+    out = Path(out) if out is not None else default_out(path)
     out.mkdir(parents=True, exist_ok=True)
     written = [plot_settlement_map(result, out / "track_settlement.png"),
                plot_passages(result, out / "track_passages.png"),
@@ -552,7 +553,7 @@ def add_parser(sub) -> None:
     p.add_argument("results", type=Path, metavar="RUN",
                    help="run directory (with results.h5) or results file")
     p.add_argument("--out", type=Path, metavar="DIR",
-                   help="output directory (default: RESULTS-analysis beside the file)")
+                   help="output directory (default: RUN/analysis of a run folder, else RESULTS-analysis)")
     p.add_argument("--hanging-gap", type=float, default=HANGING_GAP * MM, metavar="MM",
                    help="gap above which a sleeper counts as hanging, mm "
                         "(default: %(default)s)")

@@ -127,12 +127,16 @@ def post_process(out):
     package = analysis_package()
     command = f"python -m {package} summary {out}"
     try:
-        analysis_main = import_module(f"{package}.__main__").main
-        status = analysis_main(["summary", str(out)])
+        analysis = import_module(f"{package}.__main__")
+        missing = analysis.missing_package()
+        if missing is None:
+            status = analysis.main(["summary", str(out)])
     except ModuleNotFoundError as exc:
         if exc.name is None or exc.name.split(".")[0] in ("pdem", package):
             raise
-        print(f"post-processing skipped: {command} needs the Python package {exc.name.split('.')[0]} "
+        missing = exc.name.split(".")[0]
+    if missing is not None:
+        print(f"post-processing skipped: {command} needs the Python package {missing} "
               "(pip install pdem[analysis]); the run itself is complete", flush=True)
         return
     print(f"post-processing: {command}: exit status {status}", flush=True)
