@@ -67,7 +67,8 @@ class _Parser(argparse.ArgumentParser):
         sys.exit(EXIT_INPUT_ERROR)
 
 
-def main(argv=None):
+def build_parser():
+    """The parser of ``pdem`` (``campaign`` has its own: `pdem.campaign.cli`)."""
     ap = _Parser(prog="pdem", description="pdem: parallel DEM for railway ballast")
     ap.add_argument("--version", action="version", version=f"pdem {__version__}")
     sub = ap.add_subparsers(dest="command", required=True, parser_class=_Parser)
@@ -80,6 +81,11 @@ def main(argv=None):
     r.add_argument("--fresh", action="store_true",
                    help="ignore and remove the checkpoints in OUT/checkpoints and start from step 0")
     sub.add_parser("campaign", help="campaigns of runs: expand, run, slurm, status (docs/campaigns.md)", add_help=False)
+    return ap
+
+
+def main(argv=None):
+    ap = build_parser()
     argv = sys.argv[1:] if argv is None else list(argv)
     if argv[:1] == ["campaign"]:  # its own parser (pdem.campaign.cli)
         from .campaign import main as campaign_main
