@@ -137,6 +137,7 @@ class RunLoop:
         self.status = 0
         self.extra_meta = dict
         self.flush = []
+        self.first_step_s = 0.0  # wall time of this process's first step (numba compiling), if it ran here
 
     def log(self, *args):
         log(self.comm, *args)
@@ -195,7 +196,8 @@ class RunLoop:
         t0 = _time.perf_counter()
         sim.advance()
         _compiled = True
-        self.log(f"numba: the first step took {_time.perf_counter() - t0:.1f} s (compilation or cache load)")
+        self.first_step_s = _time.perf_counter() - t0
+        self.log(f"numba: the first step took {self.first_step_s:.1f} s (compilation or cache load)")
         return sim.step, _time.perf_counter()
 
     def _advance(self, sim, n_steps, on_step, until, until_every, last_step, step0, wall0, n_total, progress, stage):
