@@ -125,10 +125,13 @@ def main(argv=None):
 
 
 def post_process(out):
-    """The post-processing the run in ``out`` declared (none for a plain scene or a stopped run)."""
+    """The post-processing the run in ``out`` declared (none for a plain scene or a stopped run).
+    Skipped for want of a package: a one-line note, then the run's timing table (which the
+    summary would have shown)."""
     from .format.run import read_run_info
 
-    if read_run_info(out) is None:
+    info = read_run_info(out)
+    if info is None:
         return
     package = analysis_package()
     command = f"python -m {package} summary {out}"
@@ -144,6 +147,8 @@ def post_process(out):
     if missing is not None:
         print(f"post-processing skipped: {command} needs the Python package {missing} "
               "(pip install pdem[analysis]); the run itself is complete", flush=True)
+        if info.get("timing"):
+            print(f"\n{info['timing']}", flush=True)
         return
     print(f"post-processing: {command}: exit status {status}", flush=True)
 

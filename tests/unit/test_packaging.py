@@ -189,6 +189,7 @@ def test_clean_venv_without_extras_finishes_with_a_note(tmp_path):
     assert r.returncode == 0, r.stdout[-3000:] + r.stderr[-3000:]
     notes = [line for line in r.stdout.splitlines() if "post-processing skipped" in line]
     assert len(notes) == 1 and "matplotlib" in notes[0] and "Traceback" not in r.stderr, r.stdout + r.stderr
+    assert "Section" in r.stdout.split(notes[0])[1]  # the timing table the summary would have shown
     assert (work / "out" / "results.h5").exists() and (work / "out" / "log.txt").exists()
     r = run(venv / "bin" / "python", "-m", "pdem_analysis", "summary", "out")
     assert r.returncode == 2 and r.stderr.count("\n") == 1 and "matplotlib" in r.stderr, r.stderr
