@@ -584,10 +584,12 @@ class BlastRun(StagedRun):
     def stage_done(self, sim, name):
         """The stage-end line and snapshot."""
         top = observables.bed_top(sim)
-        plate = "" if sim.boxes is None else f", plate bottom {sim.boxes.center[0, 2] - sim.boxes.half[0, 2]:.5f} m"
+        z = None if sim.boxes is None else sim.boxes.center[0, 2]
+        plate = ("" if z is None else
+                 f", plate centre z {1e3 * z:.2f} mm (bottom {1e3 * (z - sim.boxes.half[0, 2]):.2f} mm)")
         self.loop.log(
             f"stage {name} done at t = {sim.time:.5f} s, step {sim.step}: unbalanced force ratio "
-            f"{observables.unbalanced_force(sim):.3g}, layer top {top:.4f} m{plate}"
+            f"{observables.unbalanced_force(sim):.3g}, layer top {1e3 * top:.2f} mm{plate}"
         )
         self.snapshot(sim, stage_end=True)
 

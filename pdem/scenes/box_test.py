@@ -396,7 +396,7 @@ class BoxTestRun(PreparedRun):
         if sim.boxes is None:
             return ""
         z = sim.boxes.center[0, 2]
-        return f", sleeper centre z {z:.4f} m (bottom {z - sim.boxes.half[0, 2]:.4f} m)"
+        return f", sleeper centre z {1e3 * z:.1f} mm (bottom {1e3 * (z - sim.boxes.half[0, 2]):.1f} mm)"
 
     # ------------------------------------------------------------------ preparation in the box
     def pour(self, tables):

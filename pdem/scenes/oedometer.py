@@ -453,7 +453,7 @@ class OedometerRun(PreparedRun):
         if sim.boxes is None:
             return ""
         z = sim.boxes.center[0, 2]
-        return f", platen centre z {z:.4f} m (bottom {z - sim.boxes.half[0, 2]:.4f} m)"
+        return f", platen centre z {1e3 * z:.1f} mm (bottom {1e3 * (z - sim.boxes.half[0, 2]):.1f} mm)"
 
     def fragments_at(self, label):
         """A stage's closing action: the fragment record ``label`` (breakable grains; none if

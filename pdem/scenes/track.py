@@ -559,8 +559,8 @@ class TrackRun(PreparedRun):
             return ""
         base = sim.boxes.center[:, 2] - sim.boxes.half[:, 2]
         f, v = observables.box_rest(sim, (float(np.linalg.norm(sim.gravity)) * self.c["radius"]) ** 0.5)
-        return (f", sleeper centre z {self.sleeper_z(sim):.4f} m (mean; bottoms {base.min():.4f} .. "
-                f"{base.max():.4f} m; net force/weight {f:.2g}, "
+        return (f", sleeper centre z {1e3 * self.sleeper_z(sim):.1f} mm (mean; bottoms {1e3 * base.min():.1f} .. "
+                f"{1e3 * base.max():.1f} mm; net force/weight {f:.2g}, "
                 f"speed/sqrt(gr) {v:.2g})")
 
     def save_prepared_bed(self, written):

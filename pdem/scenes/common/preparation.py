@@ -258,7 +258,7 @@ class PreparedRun(StagedRun):
         """The stage-end line and snapshot (every stage of a prepared run)."""
         top = observables.bed_top(sim)
         self.loop.log(f"stage {name} done at t = {sim.time:.4f} s, step {sim.step}: unbalanced force ratio "
-                      f"{observables.unbalanced_force(sim):.3g}, bed top {top:.4f} m" + self.bodies_note(sim))
+                      f"{observables.unbalanced_force(sim):.3g}, bed top {1e3 * top:.1f} mm" + self.bodies_note(sim))
         self.snapshot(sim, stage_end=True)
 
 
