@@ -1,4 +1,4 @@
-"""Command line: ``python -m analysis box RESULTS.h5 [--out DIR]``; also ``grading``, ``blast``,
+"""Command line: ``python -m analysis box RUN_DIR|RESULTS.h5 [--out DIR]``; also ``grading``, ``blast``,
 ``track``, ``oedometer`` (each defined by its module's ``add_parser``), ``campaign DIR`` (`analysis.campaign`),
 ``error-vs-runtime DIR`` (`analysis.error_vs_runtime`), ``stability DIR [DIR ...]``
 (`analysis.stability`: exit status 1 when the stability map fails or is not finished) and
@@ -7,16 +7,18 @@
 
 This module owns the CLI only: argument parsing, the output directory and exit status. Bad
 input (not a pdem result, no complete cycle, unwritable output) exits with status 2 and one
-line on stderr, without a traceback.
+line on stderr, without a traceback; so does a missing optional package (`NEEDS`: pdem's
+``analysis`` extra), named before any work.
 """
 
 from __future__ import annotations
 
 import argparse
 import sys
+from importlib.util import find_spec
 from pathlib import Path
 
-from pdem.format.read import ResultFileError
+from pdem.format.read import ResultFileError, results_file
 
 from . import blast, grading, oedometer, run_summary, track, validation
 from .stiffness import LOADING_WINDOW, UNLOADING_FRACTION
@@ -24,6 +26,12 @@ from .summary import run_box
 
 PROG = f"python -m {__package__}"  # analysis (a checkout) or pdem_analysis (installed)
 EXIT_BAD_INPUT = 2
+NEEDS = ("matplotlib", "scipy")  # pip install pdem[analysis]
+
+
+def missing_package() -> str | None:
+    """The first package of `NEEDS` that is not installed, or None."""
+    return next((name for name in NEEDS if find_spec(name) is None), None)
 
 
 class _Parser(argparse.ArgumentParser):
@@ -40,9 +48,11 @@ def build_parser() -> argparse.ArgumentParser:
         "box", help="box test: loops, settlement per cycle with fits, stiffness per cycle",
         description="Write loops.png, settlement.png, stiffness.png, summary.txt and "
                     "summary.json for a cyclic box test.")
-    box.add_argument("results", type=Path, metavar="RESULTS.h5", help="pdem results file")
+    box.add_argument("results", type=Path, metavar="RUN_DIR|RESULTS.h5",
+                     help="a run folder (its results.h5) or a pdem results file")
     box.add_argument("--out", type=Path, metavar="DIR",
-                     help="output directory (default: RESULTS-analysis beside the file)")
+                     help="output directory (default: RUN_DIR/analysis, where pdem run's post-processing writes; "
+                          "a results file outside a run folder: RESULTS-analysis beside it)")
     box.add_argument("--window", type=float, nargs=2, metavar=("LO", "HI"),
                      default=LOADING_WINDOW,
                      help="loading-stiffness force window, fractions of the branch force "
@@ -62,6 +72,9 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv=None) -> int:
+    missing = missing_package()
+    if missing:
+        return _fail(f"needs the Python package {missing} (pip install 'pdem[analysis]')")
     parser = build_parser()
     args = parser.parse_args(argv)
     if args.command is None:
@@ -73,7 +86,7 @@ def main(argv=None) -> int:
         if hasattr(args, "run"):
             written = args.run(args)
         else:
-            written = run_box(args.results, args.out, tuple(args.window), args.unload_fraction)
+            written = run_box(results_file(args.results), args.out, tuple(args.window), args.unload_fraction)
     except (ResultFileError, validation.ValidationError) as err:
         return _fail(str(err))
     except (ValueError, OSError) as err:

@@ -43,6 +43,8 @@ import numpy as np
 from pdem.format.groups import BlastParameters, read_blast
 from pdem.format.read import Results, results_file
 
+from .figures import default_out
+
 ARRIVAL_FRACTION = 0.05
 PAPER_INPUT_IMPULSE = 5.0e3   # [Pa s] = 5e-3 MPa s
 # plate areal mass [kg/m^2] -> (I_s [Pa s], amplification [-]) as published
@@ -423,7 +425,7 @@ def write_blast(paths, analyses, out=None) -> list[Path]:
     names = _run_names(paths)
     for path, name, result in zip(paths, names, analyses):
         if len(paths) == 1:
-            where = Path(out) if out is not None else path.with_name(path.stem + "-analysis")
+            where = Path(out) if out is not None else default_out(path)
         else:
             where = Path(out) / name
         where.mkdir(parents=True, exist_ok=True)
@@ -453,7 +455,7 @@ def add_parser(sub) -> None:
     p.add_argument("results", type=Path, nargs="+", metavar="RUN",
                    help="run directory (with results.h5) or results file")
     p.add_argument("--out", type=Path, metavar="DIR",
-                   help="output directory (one run: default RESULTS-analysis beside the file; "
+                   help="output directory (one run: default RUN/analysis of a run folder, else RESULTS-analysis; "
                         "several runs: required, one subdirectory per run)")
     p.add_argument("--until", type=float, metavar="SECONDS",
                    help="integrate up to this time (default: the whole record)")

@@ -14,7 +14,7 @@ import numpy as np
 from .cycles import CycleTable, bounds_from_t_start, cycle_table, detect_bounds
 from pdem.format.read import Results
 
-from .settlement import (LogFit, PowerFit, fit_log, fit_power, permanent_settlement,
+from .settlement import (MIN_FIT_POINTS, LogFit, PowerFit, fit_log, fit_power, permanent_settlement,
                          plastic_settlement, resilient_settlement)
 from .stiffness import (LOADING_WINDOW, UNLOADING_FRACTION, CycleStiffness,
                         cycle_stiffness)
@@ -98,6 +98,9 @@ def analyse_box(results: Results, window=LOADING_WINDOW,
 def _fits(table: CycleTable):
     """Both settlement fits; a fit that cannot be made is None with a note why."""
     n, s = table.cycle, permanent_settlement(table)
+    if len(np.unique(n)) < MIN_FIT_POINTS:  # one note for both laws
+        return None, None, [f"settlement laws not fitted: {len(np.unique(n))} cycle(s), at least {MIN_FIT_POINTS} "
+                            "needed"]
     fits, notes = [], []
     for name, fit in (("log", fit_log), ("power-law", fit_power)):
         try:

@@ -1,4 +1,5 @@
-"""The figure helpers of every plot of the analysis, and the plot of a run's preparation.
+"""The figure helpers of every plot of the analysis, where an analysis writes by default
+(`default_out`), and the plot of a run's preparation.
 
 This module owns how a figure is made and written (matplotlib's object API with the Agg renderer:
 no pyplot, no global backend switch; matplotlib is imported only when a plot is drawn, so
@@ -16,6 +17,18 @@ from pathlib import Path
 import numpy as np
 
 from pdem.format.read import read_results, read_series
+
+
+def default_out(results) -> Path:
+    """The default output directory of an analysis of the results file ``results``: RUN/analysis
+    for a run folder's file (beside a run_info.json: where ``pdem run``'s post-processing
+    writes), else RESULTS-analysis beside the file."""
+    from pdem.format.run import RUN_INFO
+
+    results = Path(results)
+    if (results.parent / RUN_INFO).exists():
+        return results.parent / "analysis"
+    return results.with_name(results.stem + "-analysis")
 
 
 def figure(w=7.0, h=5.0, rows=None, cols=1, sharex=False):

@@ -45,6 +45,8 @@ import numpy as np
 from pdem.format.groups import FragmentRecord, Fragments, read_fragments
 from pdem.format.read import results_file
 
+from .figures import default_out
+
 INTACT_MEMBERS = 135     # spheres of an intact Nottingham grain (Lim 2004; thesis 4.1.1)
 SIEVE_RATIO = 2 ** 0.5   # default sieve series: d_min * SIEVE_RATIO**k
 TOL = 1e-9               # relative: a size passes an aperture a if size <= a (1 + TOL)
@@ -477,7 +479,7 @@ def run_grading(run_or_file, out=None, reference=None, intact_members=INTACT_MEM
     path = results_file(run_or_file)
     result = analyse_grading(read_fragments(path), reference=reference,
                              intact_members=intact_members, sieves=sieves)
-    out = Path(out) if out is not None else path.with_name(path.stem + "-analysis")
+    out = Path(out) if out is not None else default_out(path)
     out.mkdir(parents=True, exist_ok=True)
     text, js = out / "grading.txt", out / "grading.json"
     text.write_text("\n".join(grading_lines(result)) + "\n")
@@ -496,7 +498,7 @@ def add_parser(sub) -> None:
     p.add_argument("results", type=Path, metavar="RUN_OR_FILE",
                    help="run directory (with results.h5) or results file")
     p.add_argument("--out", type=Path, metavar="DIR",
-                   help="output directory (default: RESULTS-analysis beside the file)")
+                   help="output directory (default: RUN/analysis of a run folder, else RESULTS-analysis)")
     p.add_argument("--reference", metavar="LABEL", help="reference record (default: first)")
     p.add_argument("--intact-members", type=int, default=INTACT_MEMBERS, metavar="N",
                    help="spheres of an intact grain (default: %(default)s, Nottingham)")

@@ -14,10 +14,22 @@ from .figures import figure, log_cycle_axis, save
 
 MM, KN, MN_PER_M = 1e3, 1e-3, 1e-6  # SI -> plotted units
 LOG_X_ABOVE = 20  # use a logarithmic cycle axis beyond this many cycles
+DISCRETE_CYCLES = 10  # up to this many cycles: one colour each with a legend (no colour bar)
+
+
+def cycle_axis(ax, n_cycles):
+    """The cycle axis: logarithmic beyond `LOG_X_ABOVE` cycles, else linear with integer ticks."""
+    from matplotlib.ticker import MaxNLocator
+
+    if n_cycles > LOG_X_ABOVE:
+        log_cycle_axis(ax)
+    else:
+        ax.xaxis.set_major_locator(MaxNLocator(integer=True))
 
 
 def plot_loops(force, settlement, bounds, path) -> Path:
-    """Force-settlement loops, one line per cycle coloured by cycle number.
+    """Force-settlement loops, one line per cycle: a colour each with a legend up to
+    `DISCRETE_CYCLES` cycles, else coloured by cycle number on a colour bar with integer ticks.
 
     Parameters
     ----------
@@ -37,11 +49,21 @@ def plot_loops(force, settlement, bounds, path) -> Path:
     u, f = np.asarray(settlement) * MM, np.asarray(force) * KN
     lines = [np.column_stack((u[s], f[s])) for s in slices]
     fig, ax = figure()
-    lc = LineCollection(lines, cmap="viridis", linewidths=1.0)
-    lc.set_array(np.arange(1, len(lines) + 1))
-    ax.add_collection(lc)
-    ax.autoscale()
-    fig.colorbar(lc, ax=ax, label="cycle")
+    if len(lines) <= DISCRETE_CYCLES:
+        for k, line in enumerate(lines):
+            ax.plot(line[:, 0], line[:, 1], lw=1.0, color=f"C{k}", label=f"cycle {k + 1}")
+        if lines:
+            ax.legend(fontsize="small")
+    else:
+        from matplotlib.ticker import MaxNLocator
+
+        lc = LineCollection(lines, cmap="viridis", linewidths=1.0)
+        lc.set_array(np.arange(1, len(lines) + 1))
+        ax.add_collection(lc)
+        ax.autoscale()
+        bar = fig.colorbar(lc, ax=ax, label="cycle N [-]")
+        bar.locator = MaxNLocator(integer=True)
+        bar.update_ticks()
     ax.set(xlabel="sleeper settlement [mm]", ylabel="ballast force on sleeper [kN]",
            title=f"Force-settlement loops ({len(lines)} cycles)")
     ax.grid(True, alpha=0.3)
@@ -67,7 +89,7 @@ def plot_settlement(cycle, permanent, path, log_fit=None, power_fit=None, peak=N
             label="permanent (end of cycle)")
     if peak is not None:
         ax.plot(cycle, np.asarray(peak) * MM, "^", color="C7", ms=3, label="at peak load")
-    n = np.geomspace(1.0, max(cycle.max(), 2.0), 200)
+    n = np.geomspace(1.0, max(cycle.max(), 2.0), 200)  # the fits exist from MIN_FIT_POINTS cycles on
     if log_fit is not None:
         ax.plot(n, log_fit(n) * MM, "-", color="C1",
                 label=f"a + b ln N: a={log_fit.a * MM:.4g} mm, b={log_fit.b * MM:.4g} mm, "
@@ -76,8 +98,8 @@ def plot_settlement(cycle, permanent, path, log_fit=None, power_fit=None, peak=N
         ax.plot(n, power_fit(n) * MM, "--", color="C2",
                 label=f"S1 N^b: S1={power_fit.s1 * MM:.4g} mm, b={power_fit.b:.4g}, "
                       f"R²={power_fit.r2:.4f}")
-    log_cycle_axis(ax)
-    ax.set(xlabel="cycle N", ylabel="sleeper settlement [mm]", title="Settlement per cycle")
+    cycle_axis(ax, len(cycle))
+    ax.set(xlabel="cycle N [-]", ylabel="sleeper settlement [mm]", title="Settlement per cycle")
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize="small")
     return save(fig, path)
@@ -98,9 +120,8 @@ def plot_stiffness(cycle, stiffness, path) -> Path:
         k = np.asarray(getattr(stiffness, name))
         if np.any(np.isfinite(k)):
             ax.plot(cycle, k * MN_PER_M, marker, ms=4, label=name)
-    if len(cycle) > LOG_X_ABOVE:
-        log_cycle_axis(ax)
-    ax.set(xlabel="cycle N", ylabel="stiffness [MN/m]", title="Stiffness per cycle")
+    cycle_axis(ax, len(cycle))
+    ax.set(xlabel="cycle N [-]", ylabel="stiffness [MN/m]", title="Stiffness per cycle")
     ax.grid(True, which="both", alpha=0.3)
     if ax.get_legend_handles_labels()[0]:
         ax.legend(fontsize="small")

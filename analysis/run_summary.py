@@ -10,9 +10,10 @@ This module owns the run's summary: it reads the run's account (``RUN/run_info.j
   (`analysis.summary.run_box`: loops, settlement, stiffness, summary.txt/.json), oedometer
   (`analysis.oedometer`, with the grading), blast (`analysis.blast`, every plate), track
   (`analysis.track`, after traffic), shear box (`shear_box`: shear stress against displacement);
-- ``RUN/summary.txt``: title, ranks, wall time [s], what the run tells of itself, the stage table
-  of a staged run (end time [s], steps, spheres, unbalanced force ratio [-], bed top [m], the
-  scene's own columns, wall time [s]), the
+- ``RUN/summary.txt``: title, pdem version and end date, the scene file's seeds and materials,
+  ranks, wall time [s], what the run tells of itself, the stage table of a staged run (end time
+  [s], steps, spheres, unbalanced force ratio [-], bed top [mm], the scene's own columns with
+  lengths in [mm], wall time [s]), the
   run's notes, the table of its kind (cycles [mm], [N]; the oedometer report; impulse per plate
   [MPa s]; passages [mm]; the shear box's peak) and the timing table; it is also printed.
 
@@ -40,6 +41,7 @@ MM = 1e3
 # stage table: the columns every staged run has (key, label, format); the scene adds its own
 STAGE_COLUMNS = (("t_end", "t_end [s]", ".6g"), ("step_end", "steps", "d"), ("spheres", "spheres", "d"),
                  ("unbalanced_force", "unbalanced", ".3g"), ("bed_top", "bed top [m]", ".5g"))
+LENGTH_FORMAT = ".2f"  # every length [m] of a table is shown in [mm] with this format
 
 
 def summarize(run) -> list[Path]:
@@ -61,7 +63,7 @@ def summarize(run) -> list[Path]:
     except (ResultFileError, ValueError, OSError) as err:
         kind_lines, files = [f"analysis failed: {_one_line(err)}"], []
         print(f"python -m analysis summary: error: {_one_line(err)}", file=sys.stderr, flush=True)
-    sections = [[f"{info['title']}: {info['scene_file']}", f"ranks: {info['ranks']}",
+    sections = [[f"{info['title']}: {info['scene_file']}", *provenance(info), f"ranks: {info['ranks']}",
                  f"wall time: {info['wall_s']:.1f} s", *info["about"]],
                 stage_table(info["stages"], info["stage_columns"]) if info["stages"] else [],
                 info["notes"], kind_lines, [info["timing"]]]
@@ -71,15 +73,32 @@ def summarize(run) -> list[Path]:
     return written + files + [run / "summary.txt"]
 
 
+def provenance(info) -> list[str]:
+    """The lines of what made the run: pdem version and end date, the scene file's seeds and
+    materials (runs written before pdem 0.3 have none of these: nothing is shown)."""
+    lines = []
+    if "pdem_version" in info:
+        lines.append(f"pdem {info['pdem_version']}, finished {info.get('finished', '?')}")
+    if "seeds" in info:
+        seeds = ", ".join(f"{k} = {v}" for k, v in info["seeds"].items())
+        lines.append(f"seeds: {seeds or 'none in the scene file'}")
+    for name, m in info.get("materials", {}).items():
+        values = (f"{k} = {v:g}" if isinstance(v, float) else f"{k} = {v}" for k, v in m.items())
+        lines.append(f"material {name} (SI units): " + ", ".join(values))
+    return lines
+
+
 def stage_table(rows, extra_columns) -> list[str]:
     """One line per stage: its name, `STAGE_COLUMNS`, the scene's ``extra_columns`` and the wall
-    time; a missing or null entry is shown as "-"."""
-    columns = [*STAGE_COLUMNS, *extra_columns, ("wall_s", "wall [s]", ".1f")]
+    time; a missing or null entry is shown as "-". Lengths (a label ending in "[m]") are shown
+    in [mm], as every displacement of the summary."""
+    columns = [(key, label[:-3] + "[mm]", LENGTH_FORMAT, MM) if label.endswith("[m]") else (key, label, fmt, 1)
+               for key, label, fmt in (*STAGE_COLUMNS, *extra_columns, ("wall_s", "wall [s]", ".1f"))]
     name_width = max([8] + [len(r["stage"]) for r in rows])
-    widths = [max(len(label), 9) for _, label, _ in columns]
-    lines = [f"{'stage':<{name_width}} " + " ".join(f"{label:>{w}}" for (_, label, _), w in zip(columns, widths))]
+    widths = [max(len(label), 9) for _, label, _, _ in columns]
+    lines = [f"{'stage':<{name_width}} " + " ".join(f"{label:>{w}}" for (_, label, _, _), w in zip(columns, widths))]
     for r in rows:
-        cells = [("-" if r.get(key) is None else format(r[key], fmt)) for key, _, fmt in columns]
+        cells = [("-" if r.get(key) is None else format(scale * r[key], fmt)) for key, _, fmt, scale in columns]
         lines.append(f"{r['stage']:<{name_width}} " + " ".join(f"{c:>{w}}" for c, w in zip(cells, widths)))
     return lines
 

@@ -4,7 +4,9 @@ This module owns the split of each cycle's settlement into a plastic part (kept 
 cycle) and a resilient part (recovered on unloading), the permanent settlement after N cycles,
 and the usual fits of it against the cycle number N:
 logarithmic S = a + b ln N and power law S = S1 N^b. Settlement in [m], positive downward;
-N [-] counts from 1. Imports numpy only.
+N [-] counts from 1. A two-parameter law is fitted only to `MIN_FIT_POINTS` or more cycles (through
+3 points any smooth monotone curve passes with R² near 1: the fit would carry no information).
+Imports numpy only.
 """
 
 from __future__ import annotations
@@ -12,6 +14,8 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
+
+MIN_FIT_POINTS = 5  # cycles (or passages) before a settlement law is fitted against N
 
 
 class LogFit(NamedTuple):
@@ -57,7 +61,7 @@ def fit_log(n, s) -> LogFit:
     Parameters
     ----------
     n : array [-]
-        Cycle numbers, >= 1, at least two distinct.
+        Cycle numbers, >= 1, at least `MIN_FIT_POINTS` distinct.
     s : array [m]
         Permanent settlement after each of them.
     """
@@ -104,6 +108,6 @@ def _fit_arrays(n, s):
     n, s = n[keep], s[keep]
     if np.any(n < 1):
         raise ValueError("cycle numbers must be >= 1")
-    if len(np.unique(n)) < 2:
-        raise ValueError(f"a settlement fit needs at least 2 cycles, got {len(np.unique(n))}")
+    if len(np.unique(n)) < MIN_FIT_POINTS:
+        raise ValueError(f"not fitted: {len(np.unique(n))} cycle(s), at least {MIN_FIT_POINTS} needed")
     return n, s

@@ -17,6 +17,7 @@ import numpy as np
 from pdem.format.read import read_box_test
 
 from .box import BoxAnalysis, analyse_box
+from .figures import default_out
 from .plots import plot_loops, plot_settlement, plot_stiffness
 from .stiffness import LOADING_WINDOW, UNLOADING_FRACTION
 
@@ -110,10 +111,10 @@ def summary_lines(result: BoxAnalysis) -> list[str]:
     lines += ["", "fits of the permanent settlement S(N), N = cycle:"]
     if result.log_fit is not None:
         f = result.log_fit
-        lines.append(f"  S = a + b ln N : a = {f.a:.6e} m, b = {f.b:.6e} m, R^2 = {f.r2:.6f}")
+        lines.append(f"  S = a + b ln N : a = {f.a * 1e3:.4f} mm, b = {f.b * 1e3:.4f} mm, R^2 = {f.r2:.6f}")
     if result.power_fit is not None:
         f = result.power_fit
-        lines.append(f"  S = S1 N^b     : S1 = {f.s1:.6e} m, b = {f.b:.6f}, R^2 = {f.r2:.6f}")
+        lines.append(f"  S = S1 N^b     : S1 = {f.s1 * 1e3:.4f} mm, b = {f.b:.6f}, R^2 = {f.r2:.6f}")
     lines += [f"  {note}" for note in result.notes]
     return lines
 
@@ -132,7 +133,7 @@ def run_box(results_path: Path, out: Path | None, window=LOADING_WINDOW,
     """Analyse one box test and write its plots and summaries; return the written files."""
     results = read_box_test(results_path)
     result = analyse_box(results, window=window, fraction=fraction)
-    out = out if out is not None else results_path.with_name(results_path.stem + "-analysis")
+    out = out if out is not None else default_out(results_path)
     out.mkdir(parents=True, exist_ok=True)
     s = results.series
     return [

@@ -48,8 +48,11 @@ import numpy as np
 from pdem.format.groups import ForceRecord, TrackRecord, read_track
 from pdem.format.read import results_file
 
+from .figures import default_out
+from .settlement import MIN_FIT_POINTS
+
 HANGING_GAP = 1e-4   # [m] a gap above this (0.1 mm) counts as a hanging sleeper
-MIN_FIT_PASSAGES = 5  # passages needed before settlement is fitted against N
+MIN_FIT_PASSAGES = MIN_FIT_POINTS  # passages needed before settlement is fitted against N
 MAX_LINES = 12       # passages drawn as lines (evenly chosen, always the first and last)
 MM, KN, MRAD = 1e3, 1e-3, 1e3
 QUANTILES = (0.5, 0.95, 0.99)
@@ -510,6 +513,7 @@ def plot_passages(result: TrackAnalysis, path) -> Path:
 def plot_voids(result: TrackAnalysis, path) -> Path:
     """Gap under each sleeper per passage, and the mean, largest gap and hanging sleepers."""
     from matplotlib.figure import Figure
+    from matplotlib.ticker import MaxNLocator
 
     from .figures import save
 
@@ -533,7 +537,8 @@ def plot_voids(result: TrackAnalysis, path) -> Path:
     ax_h = ax_p.twinx()
     ax_h.step(passages, t["hanging"], where="mid", color="C3", label="hanging sleepers")
     ax_h.set_ylabel("hanging sleepers [-]", color="C3")
-    ax_p.set(xlabel="passage [-]", ylabel="gap [mm]", title="Voids per passage")
+    ax_p.xaxis.set_major_locator(MaxNLocator(integer=True))
+    ax_p.set(xlabel="passage N [-]", ylabel="gap [mm]", title="Voids per passage")
     ax_p.grid(True, alpha=0.3)
     h1, l1 = ax_p.get_legend_handles_labels()
     h2, l2 = ax_h.get_legend_handles_labels()
@@ -617,7 +622,7 @@ def run_track(run_or_file, out=None, hanging_gap=HANGING_GAP) -> list[Path]:
     """Analyse a track run: track_*.png, track.txt, track.json."""
     path = results_file(run_or_file)
     result = analyse_track(read_track(path), hanging_gap=hanging_gap)
-    out = Path(out) if out is not None else path.with_name(path.stem + "-analysis")
+    out = Path(out) if out is not None else default_out(path)
     out.mkdir(parents=True, exist_ok=True)
     written = [plot_settlement_map(result, out / "track_settlement.png"),
                plot_passages(result, out / "track_passages.png"),
@@ -646,7 +651,7 @@ def add_parser(sub) -> None:
     p.add_argument("results", type=Path, metavar="RUN",
                    help="run directory (with results.h5) or results file")
     p.add_argument("--out", type=Path, metavar="DIR",
-                   help="output directory (default: RESULTS-analysis beside the file)")
+                   help="output directory (default: RUN/analysis of a run folder, else RESULTS-analysis)")
     p.add_argument("--hanging-gap", type=float, default=HANGING_GAP * MM, metavar="MM",
                    help="gap above which a sleeper counts as hanging, mm "
                         "(default: %(default)s)")

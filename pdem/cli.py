@@ -12,6 +12,9 @@ write failed (disk full) or memory ran out.
 ``pdem run SCENE --check`` does every check a run does at its start (`check_file`) and prints one
 line ``ok ...`` without running or writing anything.
 
+Rank 0 writes what it prints, from the start of the run to the end of its post-processing, also
+to ``OUT/log.txt`` (`pdem.driver.runlog`; appended to when a run resumes).
+
 After a successful run, rank 0 launches the post-processing the run declared in its files (a
 staged scene's run_info.json, `pdem.format.run`): ``python -m analysis summary OUT`` (in this
 process), which writes summary.txt, preparation.png and analysis/. Its exit status is printed;
@@ -133,7 +136,8 @@ class _Parser(argparse.ArgumentParser):
         sys.exit(EXIT_INPUT_ERROR)
 
 
-def main(argv=None):
+def build_parser():
+    """The parser of ``pdem`` (``campaign`` has its own: `pdem.campaign.cli`)."""
     ap = _Parser(prog="pdem", description="pdem: parallel DEM for railway ballast")
     ap.add_argument("--version", action="version", version=f"pdem {__version__}")
     sub = ap.add_subparsers(dest="command", required=True, parser_class=_Parser)
@@ -152,6 +156,11 @@ def main(argv=None):
                    help="check the scene file, the run's length and OUT as a run would at its start, without running "
                         "or writing anything; prints one line 'ok ...' (exit 0) or the error (exit 2)")
     sub.add_parser("campaign", help="campaigns of runs: expand, run, slurm, status (docs/campaigns.md)", add_help=False)
+    return ap
+
+
+def main(argv=None):
+    ap = build_parser()
     argv = sys.argv[1:] if argv is None else list(argv)
     if argv[:1] == ["campaign"]:  # its own parser (pdem.campaign.cli)
         from .campaign import main as campaign_main
@@ -172,35 +181,51 @@ def main(argv=None):
             return EXIT_INPUT_ERROR
         out = args.out or str(Path("runs") / Path(args.scene).stem)
 
+        from .driver import runlog
+
         def run():
             configure_threads(comm)
             if args.check:
                 return check_file(args.scene, out, steps=args.steps, comm=comm, sets=args.sets)
             return run_file(args.scene, out, steps=args.steps, fresh=args.fresh, comm=comm, sets=args.sets)
 
-        status = run_guarded(comm, run)
-        if status == 0 and comm.rank == 0 and not args.check:
-            post_process(out)
+        if comm.rank == 0 and not args.check:  # --check writes nothing
+            runlog.start(argv)  # OUT/log.txt: what rank 0 prints, from here to the post-processing
+        try:
+            status = run_guarded(comm, run)
+            if status == 0 and comm.rank == 0 and not args.check:
+                post_process(out)
+        finally:
+            runlog.stop()
         return status
     return 0
 
 
 def post_process(out):
-    """The post-processing the run in ``out`` declared (none for a plain scene or a stopped run)."""
+    """The post-processing the run in ``out`` declared (none for a plain scene or a stopped run).
+    Skipped for want of a package: a one-line note, then the run's timing table (which the
+    summary would have shown)."""
     from .format.run import read_run_info
 
-    if read_run_info(out) is None:
+    info = read_run_info(out)
+    if info is None:
         return
     package = analysis_package()
     command = f"python -m {package} summary {out}"
     try:
-        analysis_main = import_module(f"{package}.__main__").main
-        status = analysis_main(["summary", str(out)])
+        analysis = import_module(f"{package}.__main__")
+        missing = analysis.missing_package()
+        if missing is None:
+            status = analysis.main(["summary", str(out)])
     except ModuleNotFoundError as exc:
         if exc.name is None or exc.name.split(".")[0] in ("pdem", package):
             raise
-        print(f"post-processing skipped: {command} needs the Python package {exc.name.split('.')[0]} "
+        missing = exc.name.split(".")[0]
+    if missing is not None:
+        print(f"post-processing skipped: {command} needs the Python package {missing} "
               "(pip install pdem[analysis]); the run itself is complete", flush=True)
+        if info.get("timing"):
+            print(f"\n{info['timing']}", flush=True)
         return
     print(f"post-processing: {command}: exit status {status}", flush=True)
 

@@ -19,7 +19,7 @@ from ..format.schema import RUN_SERIES, fragment_label
 from ..version import __version__
 from ..build.config import run_settings, scene_from_dict
 from ..checks.diagnostics import check_finite
-from ..format.run import write_run_info
+from ..format.run import scene_facts, write_run_info
 from ..io.checkpoint import CheckpointError, read_checkpoint
 from . import observables
 from .fragments import FragmentRecorder
@@ -101,7 +101,7 @@ def run_scene_file(path, doc, out_dir, comm, steps=None, fresh=False):
     scene, run = scene_from_dict(doc), run_settings(doc)
     if steps is None:
         check_run_length(f"run.steps = {run['steps']}", run["steps"])
-    out = prepare_output(comm, out_dir)
+    out = prepare_output(comm, out_dir, fresh)
     t_start = _time.perf_counter()
     loop = RunLoop(comm, out, run, path, Path(path).read_text())
     resume = resume_point(comm, loop.ckdir, fresh)
@@ -155,16 +155,19 @@ def run_scene_file(path, doc, out_dir, comm, steps=None, fresh=False):
     loop_s = _time.perf_counter() - loop.wall0
     last = sample(sim)
     if comm.rank == 0 and loop.status == 0:
-        rate = n_total * (sim.step - step0) / loop_s if loop_s > 0 else 0.0
+        steps_s = loop_s - loop.first_step_s  # the throughput without numba's compilation
+        rate = n_total * (sim.step - step0 - (loop.first_step_s > 0)) / steps_s if steps_s > 0 else 0.0
         about = [f"spheres: {n_total}", f"steps: {sim.step}", f"simulated time: {sim.time:.6g} s",
                  f"final dt: {sim.dt:.4g} s", f"contacts per particle: {last['contacts_per_particle']:.3f}",
-                 f"unbalanced force ratio: {last['unbalanced_force']:.4g}", f"bed top: {last['bed_top']:.5g} m",
+                 f"unbalanced force ratio: {last['unbalanced_force']:.4g}", f"bed top: {1e3 * last['bed_top']:.2f} mm",
                  f"force on floor z: {last['floor_force_z']:.6g} N", f"loop wall time: {loop_s:.2f} s",
-                 f"throughput: {rate / 1e6:.3f} M particle-steps/s"]
+                 f"throughput: {rate / 1e6:.3f} M particle-steps/s"
+                 + (f" (the first step left out: {loop.first_step_s:.1f} s, numba compilation or cache load)"
+                    if loop.first_step_s else "")]
         wall_s = _time.perf_counter() - t_start
         write_run_info(out, summary="scene", title="scene", scene_file=str(path), ranks=comm.size, wall_s=wall_s,
                        about=about, stages=[], stage_columns=[], preparation=None, notes=[],
-                       timing=sim.timing_table())
+                       timing=sim.timing_table(), pdem_version=__version__, **scene_facts(doc))
         print(f"wrote {results}{', snapshots.xmf' if snaps else ''} (total {wall_s:.1f} s)", flush=True)
     loop.close()
     return loop.status

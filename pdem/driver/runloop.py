@@ -22,6 +22,9 @@ from ..io.checkpoint import (
     write_checkpoint,
 )
 from ..io.signals import EXIT_CHECKPOINTED_ON_SIGNAL, install_signal_handlers
+from . import runlog
+
+_compiled = False  # this process has run a first step (numba's kernels compiled or loaded from the cache)
 
 
 def log(comm, *args):
@@ -31,31 +34,63 @@ def log(comm, *args):
 
 
 class Progress:
-    """Progress of a run on rank 0: a rich progress bar when stdout is a terminal, else a line
-    every ``every`` steps (batch logs stay plain text)."""
+    """Progress of a run on rank 0: a rich progress bar when stdout is a terminal (its lines go
+    to the run's log.txt, `pdem.driver.runlog`, not its redraws), else a line every ``every``
+    steps (batch logs stay plain text)."""
 
     def __init__(self, comm, every):
         self.every = every
         self.bar = None
         if comm.rank == 0 and every and sys.stdout.isatty():
+            from rich.console import Console
+            from rich.file_proxy import FileProxy
             from rich.progress import BarColumn, TextColumn, TimeRemainingColumn
             from rich.progress import Progress as RichProgress
 
+            terminal = runlog.terminal() or sys.stdout
+            console = Console(file=terminal)
+            # printed lines go above the bar: through rich's proxy, and to the log by the Tee
             self.bar = RichProgress(TextColumn("{task.description}"), BarColumn(), TextColumn("{task.fields[info]}"),
-                                    TimeRemainingColumn(), transient=True)
+                                    TimeRemainingColumn(), transient=True, console=console,
+                                    redirect_stdout=runlog.terminal() is None, redirect_stderr=False)
             self.bar.start()
+            runlog.set_terminal(FileProxy(console, terminal))
             self.task = self.bar.add_task("steps", total=None, info="")
 
     def update(self, k, last_step, line):
         if self.bar is not None:
             self.bar.update(self.task, completed=k, total=last_step, info=line)
+            runlog.log_only(line)
         else:
             print(line, flush=True)
 
     def close(self):
         if self.bar is not None:
+            runlog.set_terminal(None)
             self.bar.stop()
             self.bar = None
+
+
+def eta_text(wall_per_step, steps_left, bounded, later=(), dt=None):
+    """"ETA 37 s", "ETA ≤ 37 s" or "ETA ≥ 37 s": the wall seconds left at ``wall_per_step`` [s] for
+    ``steps_left`` steps of this stage (at most that many if ``bounded``: it ends on a criterion)
+    and for the ``later`` stages, each (simulated seconds [s] or None if unknown, exact) run at
+    this Δt ``dt`` [s] and this wall time per step. A stage that may end early adds to the upper
+    bound only; an unknown one makes the estimate a lower bound."""
+    now = wall_per_step * max(steps_left, 0)
+    lo, hi = (0.0 if bounded else now), now
+    for seconds, exact in later:
+        if seconds is None:
+            hi = float("inf")
+            continue
+        wall = wall_per_step * seconds / max(dt, 1e-300)
+        lo += wall if exact else 0.0
+        hi += wall
+    if hi == float("inf"):
+        return f"ETA \u2265 {lo:.0f} s"
+    if hi - lo > 0.5:
+        return f"ETA \u2264 {hi:.0f} s"
+    return f"ETA {hi:.0f} s"
 
 
 def resume_point(comm, ckdir, fresh):
@@ -102,6 +137,7 @@ class RunLoop:
         self.status = 0
         self.extra_meta = dict
         self.flush = []
+        self.first_step_s = 0.0  # wall time of this process's first step (numba compiling), if it ran here
 
     def log(self, *args):
         log(self.comm, *args)
@@ -121,19 +157,25 @@ class RunLoop:
         sim.timers.add("output", t0)
         return written
 
-    def advance(self, sim, n_steps, on_step=None, until=None, until_every=100, last_step=None):
+    def advance(self, sim, n_steps, on_step=None, until=None, until_every=100, last_step=None, stage=None):
         """Advance up to ``n_steps`` steps, calling ``on_step(sim)`` after each; stop early when
         ``until(sim)`` (a collective decision) is true, checked every ``until_every`` steps.
         Returns "done", "until" or "signal" (a checkpoint was written, ``status`` is set).
         ``last_step`` (default: the step after n_steps) is the step of the whole run's end, for
-        the ETA and to skip a scheduled checkpoint there."""
+        the ETA and to skip a scheduled checkpoint there. ``stage`` (a staged run): (label, e.g.
+        "stage 2/5 refill", whether it may end before ``last_step``, the later stages as
+        `eta_text` takes them) for the progress line's whole-run ETA.
+
+        The first step of a process compiles numba's kernels (or loads them from the cache):
+        it is announced before and its wall time printed after, and not counted in the rate."""
         run, comm = self.run, self.comm
-        step0, wall0 = sim.step, _time.perf_counter()
         last_step = sim.step + n_steps if last_step is None else last_step
         n_total = comm.allreduce_sum_int(sim.particles.n_local)
+        step0, wall0 = sim.step, _time.perf_counter()
         progress = Progress(comm, run["progress_every"])
         try:
-            return self._advance(sim, n_steps, on_step, until, until_every, last_step, step0, wall0, n_total, progress)
+            return self._advance(sim, n_steps, on_step, until, until_every, last_step, step0, wall0, n_total, progress,
+                                 stage)
         except InstabilityError:
             self._flush_quietly()  # the rows before the stop show how it came (all finite: FiniteSeriesWriter)
             raise
@@ -147,10 +189,25 @@ class RunLoop:
             except (OSError, RuntimeError):  # the instability is what the run reports
                 pass
 
-    def _advance(self, sim, n_steps, on_step, until, until_every, last_step, step0, wall0, n_total, progress):
+    def _first_step(self, sim):
+        """The first step of this process, announced: numba compiles (or loads) the kernels."""
+        global _compiled
+        self.log("numba: compiling the kernels (or loading them from the cache); the first step waits for it ...")
+        t0 = _time.perf_counter()
+        sim.advance()
+        _compiled = True
+        self.first_step_s = _time.perf_counter() - t0
+        self.log(f"numba: the first step took {self.first_step_s:.1f} s (compilation or cache load)")
+        return sim.step, _time.perf_counter()
+
+    def _advance(self, sim, n_steps, on_step, until, until_every, last_step, step0, wall0, n_total, progress, stage):
         run, comm = self.run, self.comm
+        label, bounded, later = stage if stage is not None else ("", False, ())
         for _ in range(max(int(n_steps), 0)):
-            sim.advance()
+            if _compiled:
+                sim.advance()
+            else:  # the rate and ETA start after it
+                step0, wall0 = self._first_step(sim)
             k = sim.step
             t0 = _time.perf_counter()
             if on_step is not None:
@@ -159,9 +216,10 @@ class RunLoop:
                 el = _time.perf_counter() - wall0
                 done = k - step0
                 rate = n_total * done / el if el > 0 else 0.0
-                eta = el / max(done, 1) * (last_step - k)
-                line = (f"step {k:>9d}  t = {sim.time:.5e} s  dt = {sim.dt:.3e} s  contacts/particle = "
-                        f"{sim.contacts_per_particle():.2f}  {rate / 1e6:.2f} M particle-steps/s  ETA {eta:.0f} s")
+                eta = eta_text(el / max(done, 1), last_step - k, bounded, later, sim.dt)
+                line = (f"{label + '  ' if label else ''}step {k:>9d}  t = {sim.time:.5e} s  dt = {sim.dt:.3e} s  "
+                        f"contacts/particle = {sim.contacts_per_particle():.2f}  {rate / 1e6:.2f} M particle-steps/s  "
+                        f"{eta}")
                 if comm.rank == 0:
                     progress.update(k, last_step, line)
             sim.timers.add("output", t0)
@@ -191,11 +249,12 @@ class RunLoop:
         self.stop.uninstall()
 
 
-def prepare_output(comm, out):
+def prepare_output(comm, out, fresh=False):
     """The output directory ``out`` and its checkpoints/ folder, created if missing and checked
     writable by rank 0 (a probe file written and removed in each) before any work; every rank
     raises the same one-line InputError if they cannot be used (bad input found at start, not a
-    failed write after the work). The account of an earlier run (run_info.json) is removed."""
+    failed write after the work). The account of an earlier run (run_info.json) is removed; the
+    run's log.txt is opened (`pdem.driver.runlog`: truncated if ``fresh``, else appended to)."""
     out = Path(out)
     problem = _unusable_output(out) if comm.rank == 0 else None
     problem = comm.bcast(problem)
@@ -203,6 +262,7 @@ def prepare_output(comm, out):
         raise InputError(f"--out {out}: {problem}")
     if comm.rank == 0:  # only a run that completes leaves its account
         clear_run_info(out)
+        runlog.attach(out, fresh)
     return out
 
 

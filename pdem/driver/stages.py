@@ -41,7 +41,7 @@ from ..io.checkpoint_state import restore_clock
 from ..build.config import result_identity, run_settings
 from ..contact import stiffness_keys
 from ..errors import InputError
-from ..format.run import write_run_info
+from ..format.run import scene_facts, write_run_info
 from ..io.checkpoint import CheckpointError, read_checkpoint
 from ..build.scene import sphere_columns
 from ..simulation import Timers
@@ -173,7 +173,10 @@ class Stage:
     - ``max_steps``: at most this many steps (default: until ``until``);
     - ``close(sim)``: what is done at its end, before its checkpoint;
     - ``record(sim) -> dict``: extra entries of its summary row (JSON-able);
-    - ``saved(path)``: what is done with its stage-end checkpoint file (collective).
+    - ``saved(path)``: what is done with its stage-end checkpoint file (collective);
+    - ``length``: (simulated seconds [s], exact) if known before the stage opens: exact (it ends
+      then) or at most that (it ends earlier on a criterion); None (default) if unknown. For the
+      whole-run ETA of the progress lines only.
     """
 
     name: str
@@ -185,6 +188,7 @@ class Stage:
     close: Callable = nothing
     record: Callable = no_record
     saved: Callable = nothing
+    length: tuple = None
 
     def then(self, prepare=None, close=None):
         """This stage with ``prepare`` and/or ``close`` run after its own."""
@@ -219,7 +223,7 @@ class StagedRun:
         self.stages = self.stage_list()
         self.STAGES = tuple(stage.name for stage in self.stages)
         self.t_start = _time.perf_counter()
-        self.out = prepare_output(comm, out_dir)
+        self.out = prepare_output(comm, out_dir, fresh)
         self.scene_text = Path(path).read_text()
         self.loop = RunLoop(comm, self.out, self.run_cfg, path, self.scene_text)
         self.state = {"stage": 0, "started": False, "stage_t0": 0.0, "next_gid": 0, "stages": [],
@@ -286,7 +290,8 @@ class StagedRun:
         """Rank 0 at the end of the last stage: the run's account for its post-processing
         (run_info.json, `pdem.format.run`; ``facts`` are the scene's entries)."""
         write_run_info(self.out, scene_file=str(self.path), ranks=self.comm.size, wall_s=wall_s,
-                       stages=self.state["stages"], timing=sim.timing_table(), **facts)
+                       stages=self.state["stages"], timing=sim.timing_table(), pdem_version=__version__,
+                       **scene_facts(self.doc), **facts)
 
     # ------------------------------------------------------------------ the loop
     def run(self):
@@ -305,8 +310,11 @@ class StagedRun:
                 n_steps = min(n_steps, max(self.stop_step - sim.step, 0))
             check_run_length(f"stage {stage.name}: its end at t = {t_end:.6g} s at dt = {sim.dt:.4g} s",
                              min(eta_step - sim.step, n_steps))
+            k, n = self.state["stage"], len(self.stages)
+            later = [s.length or (None, False) for s in self.stages[k + 1:]]
+            bounded = until is not None and not (stage.length and stage.length[1])
             outcome = self.loop.advance(sim, n_steps, on_step=on_step, until=until, until_every=every,
-                                        last_step=eta_step)
+                                        last_step=eta_step, stage=(f"stage {k + 1}/{n} {stage.name}", bounded, later))
             if outcome == "signal":
                 break
             if outcome == "done" and self.stop_step is not None and sim.step >= self.stop_step:

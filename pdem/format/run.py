@@ -19,6 +19,10 @@ computed from the results is the analysis's:
                  preparation.h5, or null (no preparation in this run)
 ``notes``        lines shown under the stage table (load program, load balance, ...)
 ``timing``       the timing table (text)
+``pdem_version`` the pdem that ran it; ``finished`` when it ended (UTC, ISO 8601)
+``materials``    the scene file's [materials] tables as written (SI units: density [kg/m^3],
+                 young [Pa], friction_angle [rad], ...)
+``seeds``        {dotted key of the scene file: value} of every random seed it sets
 and the entries of its kind: oedometer ``intact_members`` [-]; blast ``plates`` [[areal mass
 [kg/m^2], run directory relative to RUN]]; track ``traffic`` (bool: traffic was run).
 
@@ -27,11 +31,29 @@ that completed leaves one. Imports the standard library only.
 """
 import json
 import os
+import time
 from pathlib import Path
 
 RUN_INFO = "run_info.json"
 FORMAT = "pdem-run-info"
 VERSION = 1
+
+
+def scene_facts(doc) -> dict:
+    """``materials`` and ``seeds`` of the parsed scene file ``doc`` (entries of run_info.json):
+    every key named ``seed`` or ending in ``_seed``, at any depth, by its dotted path."""
+    seeds = {}
+
+    def walk(table, prefix):
+        for key, value in table.items():
+            if isinstance(value, dict):
+                walk(value, f"{prefix}{key}.")
+            elif key == "seed" or key.endswith("_seed"):
+                seeds[prefix + key] = value
+
+    walk(doc, "")
+    return {"materials": doc.get("materials", {}), "seeds": seeds,
+            "finished": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())}
 
 
 def write_run_info(run_dir, **info) -> Path:

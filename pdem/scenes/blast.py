@@ -587,10 +587,12 @@ class BlastRun(StagedRun):
     def stage_done(self, sim, name):
         """The stage-end line and snapshot."""
         top = observables.bed_top(sim)
-        plate = "" if sim.boxes is None else f", plate bottom {sim.boxes.center[0, 2] - sim.boxes.half[0, 2]:.5f} m"
+        z = None if sim.boxes is None else sim.boxes.center[0, 2]
+        plate = ("" if z is None else
+                 f", plate centre z {1e3 * z:.2f} mm (bottom {1e3 * (z - sim.boxes.half[0, 2]):.2f} mm)")
         self.loop.log(
             f"stage {name} done at t = {sim.time:.5f} s, step {sim.step}: unbalanced force ratio "
-            f"{observables.unbalanced_force(sim):.3g}, layer top {top:.4f} m{plate}"
+            f"{observables.unbalanced_force(sim):.3g}, layer top {1e3 * top:.2f} mm{plate}"
         )
         self.snapshot(sim, stage_end=True)
 
@@ -638,7 +640,7 @@ class BlastRun(StagedRun):
         c = self.c
         super().finish(sim, wall_s, summary="blast", title="blast layer",
                        about=[f"prepared layer: {self.state['prepared']}"],
-                       stage_columns=[("plate_z", "plate z [m]", ".5f")],
+                       stage_columns=[("plate_z", "plate centre z [m]", ".5f")],
                        preparation={"stages": list(self.STAGES), "body": "plate centre"},
                        notes=[f"impulse F0 = {c['F0']:g} N over tau = {c['tau']:g} s, {c['duration'] * 1e3:g} ms "
                               "recorded"],

@@ -351,7 +351,7 @@ class BoxTestRun(PreparedRun):
             stages.append(self.stiffen_stage())
         stages.append(Stage("load", lambda tables: self.stage_scene(tables, loaded=True), self.load_program,
                             open=self.open_load, close=lambda sim: self.stage_done(sim, "load"),
-                            record=self.stage_record))
+                            record=self.stage_record, length=(self.c["cycles"] / self.c["frequency"], False)))
         if self.c["base"] == "two_sided":
             stages = [stage.then(prepare=self.open_base) for stage in stages]
         return stages
@@ -393,7 +393,10 @@ class BoxTestRun(PreparedRun):
         sim.max_overlap_ratio = max(sim.max_overlap_ratio, 1.0)
 
     def bodies_note(self, sim):
-        return "" if sim.boxes is None else f", sleeper bottom {sim.boxes.center[0, 2] - sim.boxes.half[0, 2]:.4f} m"
+        if sim.boxes is None:
+            return ""
+        z = sim.boxes.center[0, 2]
+        return f", sleeper centre z {1e3 * z:.1f} mm (bottom {1e3 * (z - sim.boxes.half[0, 2]):.1f} mm)"
 
     # ------------------------------------------------------------------ preparation in the box
     def pour(self, tables):
@@ -524,6 +527,6 @@ class BoxTestRun(PreparedRun):
     def finish(self, sim, wall_s):
         c = self.c
         super().finish(sim, wall_s, summary="box_test", title="box test", about=[],
-                       stage_columns=[("sleeper_z", "sleeper z [m]", ".4f")],
+                       stage_columns=[("sleeper_z", "sleeper centre z [m]", ".4f")],
                        preparation={"stages": list(self.STAGES), "body": "sleeper centre"},
                        notes=[f"cycles {c['f_min']:g} <-> {c['f_max']:g} N at {c['frequency']:g} Hz"])

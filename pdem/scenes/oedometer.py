@@ -452,7 +452,10 @@ class OedometerRun(PreparedRun):
         return g <= 0.0 or sim.time - self.state["stage_t0"] >= 1.5 * (2.0 * self.state["collar_top"] / g) ** 0.5
 
     def bodies_note(self, sim):
-        return "" if sim.boxes is None else f", platen bottom {sim.boxes.center[0, 2] - sim.boxes.half[0, 2]:.4f} m"
+        if sim.boxes is None:
+            return ""
+        z = sim.boxes.center[0, 2]
+        return f", platen centre z {1e3 * z:.1f} mm (bottom {1e3 * (z - sim.boxes.half[0, 2]):.1f} mm)"
 
     def fragments_at(self, label):
         """A stage's closing action: the fragment record ``label`` (breakable grains; none if
@@ -499,6 +502,6 @@ class OedometerRun(PreparedRun):
 
     def finish(self, sim, wall_s):
         super().finish(sim, wall_s, summary="oedometer", title="oedometer", about=[],
-                       stage_columns=[("sleeper_z", "platen z [m]", ".4f")],
+                       stage_columns=[("sleeper_z", "platen centre z [m]", ".4f")],
                        preparation={"stages": list(STAGES), "body": "platen centre"}, notes=[],
                        intact_members=intact_members(self.c))

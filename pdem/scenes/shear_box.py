@@ -146,4 +146,4 @@ class ShearBoxRun(PreparedRun):
     def finish(self, sim, wall_s):
         prep = {"stages": ["pour", "consolidate"], "body": "platen centre"}
         super().finish(sim, wall_s, summary="shear_box", title="direct shear box", about=[], notes=[], preparation=prep,
-                       stage_columns=[("sleeper_z", "platen z [m]", ".4f")], area=self.c["side"] ** 2)
+                       stage_columns=[("sleeper_z", "platen centre z [m]", ".4f")], area=self.c["side"] ** 2)

@@ -661,7 +661,8 @@ class TrackRun(PreparedRun):
             return ""
         base = sim.boxes.center[:, 2] - sim.boxes.half[:, 2]
         f, v = observables.box_rest(sim, (float(np.linalg.norm(sim.gravity)) * self.c["radius"]) ** 0.5)
-        return (f", sleeper bases {base.min():.4f} .. {base.max():.4f} m (net force/weight {f:.2g}, "
+        return (f", sleeper centre z {1e3 * self.sleeper_z(sim):.1f} mm (mean; bottoms {1e3 * base.min():.1f} .. "
+                f"{1e3 * base.max():.1f} mm; net force/weight {f:.2g}, "
                 f"speed/sqrt(gr) {v:.2g})")
 
     def save_prepared_bed(self, written):
@@ -835,7 +836,7 @@ class TrackRun(PreparedRun):
                  f"{c['body_mass']:.1f} kg"] + ([f"prepared bed: {prepared}"] if prepared else [])
         traffic = self.t is not None and (self.out / "results.h5").exists()
         super().finish(sim, wall_s, summary="track", title="track section", about=about,
-                       stage_columns=[("sleeper_z", "sleeper z [m]", ".4f"), ("balance", "balance", ".3f")],
+                       stage_columns=[("sleeper_z", "sleeper centre z [m]", ".4f"), ("balance", "balance", ".3f")],
                        preparation=None if prepared else {"stages": list(PREPARATION), "body": "sleeper centre"},
                        notes=balance_lines(self.write_scaling(sim, wall_s))
                        + (["", f"traffic: {self.traffic_text()}"] if traffic else []),

@@ -1,4 +1,4 @@
-"""The command line: python -m analysis box RESULTS.h5 [--out DIR]."""
+"""The command line: python -m analysis box RUN_DIR|RESULTS.h5 [--out DIR]."""
 
 import json
 import subprocess
@@ -87,3 +87,27 @@ def test_no_complete_cycle_exits_2(tmp_path, box_record, box_attrs, capsys):
     assert main(["box", str(path), "--out", str(tmp_path / "o")]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "no complete load cycle" in err
+
+
+def test_box_of_a_run_folder_writes_into_its_analysis_folder(box_file, tmp_path):
+    """``box RUN_DIR`` as the other sub-commands, into RUN_DIR/analysis where pdem run's
+    post-processing writes (no second folder beside it); a file of a run folder alike."""
+    run = tmp_path / "run"
+    run.mkdir()
+    (run / "results.h5").write_bytes(box_file.read_bytes())
+    (run / "run_info.json").write_text("{}")
+    assert main(["box", str(run)]) == 0
+    assert (run / "analysis" / "summary.json").is_file()
+    assert sorted(p.name for p in run.iterdir()) == ["analysis", "results.h5", "run_info.json"]
+    (run / "analysis" / "summary.json").unlink()
+    assert main(["box", str(run / "results.h5")]) == 0
+    assert (run / "analysis" / "summary.json").is_file()
+
+
+def test_without_the_analysis_extra_one_line_exit_2(monkeypatch, capsys):
+    import analysis.__main__ as cli
+
+    monkeypatch.setattr(cli, "find_spec", lambda name: None if name == "matplotlib" else object())
+    assert cli.main(["box", "anything.h5"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "matplotlib" in err and "Traceback" not in err

@@ -34,10 +34,12 @@ def test_noisy_data_r2_below_one():
 def test_fit_errors():
     with pytest.raises(ValueError, match="positive"):
         fit_power(N, np.log(N))  # zero after the first cycle
-    with pytest.raises(ValueError, match="at least 2 cycles"):
+    with pytest.raises(ValueError, match="at least 5 needed"):
         fit_log([1.0], [1e-3])
+    with pytest.raises(ValueError, match="3 cycle"):  # 3 points carry no two-parameter law (issue #34)
+        fit_log([1.0, 2.0, 3.0], [1e-3, 1.2e-3, 1.3e-3])
     with pytest.raises(ValueError, match=">= 1"):
-        fit_log([0.0, 1.0], [1e-3, 2e-3])
+        fit_log([0.0, 1.0, 2.0, 3.0, 4.0], [1e-3, 2e-3, 3e-3, 4e-3, 5e-3])
 
 
 def test_plastic_and_resilient_parts(box_record):

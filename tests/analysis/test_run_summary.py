@@ -8,7 +8,7 @@ import pytest
 from analysis.__main__ import main
 from analysis.run_summary import stage_table
 from pdem.format.read import ResultFileError, read_results
-from pdem.format.run import RUN_INFO, clear_run_info, read_run_info, write_run_info
+from pdem.format.run import RUN_INFO, clear_run_info, read_run_info, scene_facts, write_run_info
 from pdem.format.schema import RUN_SERIES, write_results
 
 
@@ -53,10 +53,11 @@ def test_stage_table_columns_and_missing_values():
              "bed_top": 0.25, "sleeper_z": None, "wall_s": 3.0},
             {"stage": "settle_long_name", "t_end": 1.0, "step_end": 200, "spheres": 20, "unbalanced_force": 0.001,
              "bed_top": 0.24, "sleeper_z": 0.3, "wall_s": 4.0}]
-    lines = stage_table(rows, [("sleeper_z", "sleeper z [m]", ".4f"), ("balance", "balance", ".3f")])
-    assert lines[0].split()[:2] == ["stage", "t_end"] and "sleeper z [m]" in lines[0]
-    assert lines[1].split() == ["pour", "0.5", "100", "20", "0.01", "0.25", "-", "-", "3.0"]
-    assert lines[2].split()[6:] == ["0.3000", "-", "4.0"]
+    lines = stage_table(rows, [("sleeper_z", "sleeper centre z [m]", ".4f"), ("balance", "balance", ".3f")])
+    assert lines[0].split()[:2] == ["stage", "t_end"] and "sleeper centre z [mm]" in lines[0]  # one length unit
+    assert "bed top [mm]" in lines[0] and "[m]" not in lines[0]
+    assert lines[1].split() == ["pour", "0.5", "100", "20", "0.01", "250.00", "-", "-", "3.0"]
+    assert lines[2].split()[6:] == ["300.00", "-", "4.0"]
     assert len({len(line) for line in lines}) == 1  # aligned
 
 
@@ -68,3 +69,20 @@ def test_lenient_read_gives_none_where_the_strict_one_raises(tmp_path):
         assert read_results(path, lenient=True) is None
         with pytest.raises(ResultFileError):
             read_results(path)
+
+
+def test_summary_names_version_date_seeds_and_materials(tmp_path):
+    doc = {"materials": {"ballast": {"density": 2600.0, "young": 1.0e7}},
+           "deposition": {"seed": 3}, "box_test": {"refill": {"pour_seed": 7}, "seedless": 1}}
+    facts = scene_facts(doc)
+    assert facts["seeds"] == {"deposition.seed": 3, "box_test.refill.pour_seed": 7}
+    assert facts["materials"] == doc["materials"] and facts["finished"].endswith("Z")
+    plain_run(tmp_path)
+    info = read_run_info(tmp_path)
+    write_run_info(tmp_path, **{k: v for k, v in info.items() if k not in ("format", "version")},
+                   pdem_version="9.9.9", **facts)
+    assert main(["summary", str(tmp_path)]) == 0
+    lines = (tmp_path / "summary.txt").read_text().splitlines()
+    assert lines[1] == f"pdem 9.9.9, finished {facts['finished']}"
+    assert lines[2] == "seeds: deposition.seed = 3, box_test.refill.pour_seed = 7"
+    assert lines[3] == "material ballast (SI units): density = 2600, young = 1e+07"

@@ -1,11 +1,22 @@
 """The wheel as a user gets it: built from a copy of the sources (nothing written into the checkout),
-installed into a fresh venv, then ``pdem --version`` and a tiny plain scene end to end, run from
-outside the checkout.
+installed into a fresh venv, then ``pdem --version`` and a scene end to end, run from outside the
+checkout.
 
-Offline, the fresh venv cannot download numpy, numba, h5py and rich: the wheel goes in with
-``--no-deps`` and a .pth line lends the venv this interpreter's site-packages (added as a plain
-path: its own .pth files, such as one pointing at a checkout, are not processed). Building needs
-setuptools with ``bdist_wheel`` (setuptools >= 70.1, or the ``wheel`` package): skipped without it.
+Building needs setuptools >= 77 (pyproject.toml): this interpreter's if it has one, else a build
+venv with the setuptools that requirements.lock pins (from the package index or pip's cache: a
+clean clone builds offline once `make venv` installed the lock).
+
+- `test_wheel_installs_and_runs_a_scene`: the wheel's contents; installed with ``--no-deps`` into a
+  venv that borrows this interpreter's site-packages (a .pth line, added as a plain path: its own
+  .pth files, such as one pointing at a checkout, are not processed); a tiny plain scene.
+- `test_clean_venv_with_the_mpi_extra_runs_the_box_test_on_2_ranks`: ``pip install WHEEL[mpi]``
+  into an empty venv, every dependency from the package index at the versions of
+  requirements.lock, then ``mpiexec -n 2 pdem run jobs/box_test.toml --steps 300`` (the venv's
+  own mpiexec, from the mpich wheel): exit 0, a checkpoint at step 300, OUT/log.txt.
+- `test_clean_venv_without_extras_finishes_with_a_note`: ``pip install WHEEL`` (no extras): a
+  plain scene runs serially and ends with exit 0 and one line naming the missing package of the
+  post-processing; ``python -m pdem_analysis`` says which package it needs, exit 2.
+The two clean-venv tests are skipped when no package index answers (a machine without one).
 """
 import os
 import shutil
@@ -25,15 +36,41 @@ from pdem.version import __version__
 
 ROOT = Path(__file__).resolve().parents[2]
 SOURCES = ("pyproject.toml", "README.md", "LICENSE", "pdem", "analysis")
+BUILD_SETUPTOOLS = (77, 0)  # pyproject.toml [build-system]
 
 
-def _can_build_wheels():
+def locked(name):
+    """The version requirements.lock pins for ``name``."""
+    for line in (ROOT / "requirements.lock").read_text().splitlines():
+        if line.lower().startswith(f"{name.lower()}=="):
+            return line.split("==")[1].strip()
+    raise AssertionError(f"requirements.lock pins no {name}")
+
+
+def _this_python_builds():
     if find_spec("setuptools") is None:
         return False
     import setuptools
 
-    version = tuple(int(x) for x in setuptools.__version__.split(".")[:2])
-    return version >= (70, 1) or find_spec("wheel") is not None
+    return tuple(int(x) for x in setuptools.__version__.split(".")[:2]) >= BUILD_SETUPTOOLS
+
+
+def _pip(python, *args, timeout=1800):
+    return subprocess.run([str(python), "-m", "pip", *map(str, args)], capture_output=True, text=True,
+                          timeout=timeout)
+
+
+def builder(tmp_path):
+    """A Python that can build the wheel: this one, or a venv with the locked setuptools
+    (pytest.skip if it cannot be installed: no package index and nothing cached)."""
+    if _this_python_builds():
+        return Path(sys.executable)
+    venv = tmp_path / "build-venv"
+    subprocess.run([sys.executable, "-m", "venv", str(venv)], check=True, timeout=300)
+    r = _pip(venv / "bin" / "python", "install", "-q", f"setuptools=={locked('setuptools')}")
+    if r.returncode != 0:
+        pytest.skip(f"setuptools=={locked('setuptools')} cannot be installed here: {r.stderr.strip()[-300:]}")
+    return venv / "bin" / "python"
 
 
 def build_wheel(tmp_path):
@@ -44,8 +81,8 @@ def build_wheel(tmp_path):
         else:
             src.mkdir(exist_ok=True)
             shutil.copy(ROOT / name, src / name)
-    r = subprocess.run([sys.executable, "-m", "pip", "wheel", str(src), "--no-deps", "--no-build-isolation",
-                        "--no-index", "-w", str(tmp_path / "dist")], capture_output=True, text=True, timeout=600)
+    r = _pip(builder(tmp_path), "wheel", src, "--no-deps", "--no-build-isolation", "--no-index",
+             "-w", tmp_path / "dist", timeout=600)
     assert r.returncode == 0, r.stdout[-3000:] + r.stderr[-3000:]
     (wheel,) = (tmp_path / "dist").glob("pdem-*.whl")
     return wheel
@@ -65,14 +102,35 @@ def fresh_venv(tmp_path, wheel):
     return venv
 
 
+def clean_venv(tmp_path, wheel, extras=""):
+    """An empty venv (with pip) and ``pip install WHEEL[extras]``, the dependencies from the
+    package index at requirements.lock's versions (pytest.skip if no index answers)."""
+    venv = tmp_path / f"venv{extras or '-plain'}"
+    subprocess.run([sys.executable, "-m", "venv", str(venv)], check=True, timeout=300)
+    r = _pip(venv / "bin" / "python", "install", "-q", "--only-binary", ":all:", "-c", ROOT / "requirements.lock",
+             f"{wheel}{'[' + extras + ']' if extras else ''}")
+    if r.returncode != 0 and ("No matching distribution" in r.stderr or "Could not find" in r.stderr
+                              or "NewConnectionError" in r.stderr):
+        pytest.skip(f"the dependencies cannot be installed here (no package index?): {r.stderr.strip()[-300:]}")
+    assert r.returncode == 0, r.stdout[-3000:] + r.stderr[-3000:]
+    return venv
+
+
+def user_env(tmp_path):
+    """The environment of a user: no PYTHONPATH into this checkout, one thread, a numba cache."""
+    env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "VIRTUAL_ENV")}
+    env.update(OMP_NUM_THREADS="1", NUMBA_NUM_THREADS="1", MPLBACKEND="Agg", NUMBA_CACHE_DIR=str(tmp_path / "cache"))
+    return env
+
+
 @pytest.mark.slow
-@pytest.mark.skipif(not _can_build_wheels(), reason="setuptools here cannot build wheels (needs >= 70.1 or `wheel`)")
 def test_wheel_installs_and_runs_a_scene(tmp_path):
     wheel = build_wheel(tmp_path)
     names = zipfile.ZipFile(wheel).namelist()
     tops = {n.split("/")[0] for n in names}
     assert tops == {"pdem", "pdem_analysis", f"pdem-{__version__}.dist-info"}, tops
-    assert "pdem_analysis/__main__.py" in names and f"pdem-{__version__}.dist-info/LICENSE" in names
+    assert "pdem_analysis/__main__.py" in names
+    assert {f"pdem-{__version__}.dist-info/LICENSE", f"pdem-{__version__}.dist-info/licenses/LICENSE"} & set(names)
     meta = zipfile.ZipFile(wheel).read(f"pdem-{__version__}.dist-info/METADATA").decode()
     for dep in ("numba", "h5py", "rich", "matplotlib", "mpi4py", "meshio", "ruff"):
         assert f"Requires-Dist: {dep}" in meta, dep
@@ -80,8 +138,7 @@ def test_wheel_installs_and_runs_a_scene(tmp_path):
     assert packages <= {n.rsplit("/", 1)[0] for n in names}, "a pdem sub-package is missing from the wheel"
 
     venv = fresh_venv(tmp_path, wheel)
-    env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
-    env.update(OMP_NUM_THREADS="1", NUMBA_NUM_THREADS="1", MPLBACKEND="Agg", NUMBA_CACHE_DIR=str(tmp_path / "cache"))
+    env = user_env(tmp_path)
     work = tmp_path / "work"
     work.mkdir()
 
@@ -98,6 +155,44 @@ def test_wheel_installs_and_runs_a_scene(tmp_path):
     r = run(venv / "bin" / "pdem", "run", "tiny.toml", "--out", "out")
     assert r.returncode == 0, r.stdout[-3000:] + r.stderr[-3000:]
     assert (work / "out" / "results.h5").exists()
+
+
+@pytest.mark.slow
+def test_clean_venv_with_the_mpi_extra_runs_the_box_test_on_2_ranks(tmp_path):
+    venv = clean_venv(tmp_path, build_wheel(tmp_path), "mpi")
+    work = tmp_path / "work"
+    work.mkdir()
+    shutil.copy(ROOT / "jobs" / "box_test.toml", work / "box_test.toml")
+    r = subprocess.run([venv / "bin" / "mpiexec", "-n", "2", venv / "bin" / "pdem", "run", "box_test.toml", "--out",
+                        "out", "--steps", "300"], capture_output=True, text=True, timeout=1800, env=user_env(tmp_path),
+                       cwd=work)
+    assert r.returncode == 0, r.stdout[-3000:] + r.stderr[-3000:]
+    assert "on 2 rank(s)" in r.stdout and "Traceback" not in r.stderr
+    assert (work / "out" / "checkpoints" / "ckpt_000000000300.h5").exists()
+    log = (work / "out" / "log.txt").read_text()
+    assert "on 2 rank(s)" in log and "stopped at step 300" in log
+
+
+@pytest.mark.slow
+def test_clean_venv_without_extras_finishes_with_a_note(tmp_path):
+    venv = clean_venv(tmp_path, build_wheel(tmp_path))
+    work = tmp_path / "work"
+    work.mkdir()
+    (work / "tiny.toml").write_text(TINY_DEPOSITION)
+    env = user_env(tmp_path)
+
+    def run(*cmd):
+        return subprocess.run([str(c) for c in cmd], capture_output=True, text=True, timeout=1800, env=env, cwd=work)
+
+    assert run(venv / "bin" / "python", "-c", "import mpi4py").returncode != 0  # really without the extras
+    r = run(venv / "bin" / "pdem", "run", "tiny.toml", "--out", "out")
+    assert r.returncode == 0, r.stdout[-3000:] + r.stderr[-3000:]
+    notes = [line for line in r.stdout.splitlines() if "post-processing skipped" in line]
+    assert len(notes) == 1 and "matplotlib" in notes[0] and "Traceback" not in r.stderr, r.stdout + r.stderr
+    assert "Section" in r.stdout.split(notes[0])[1]  # the timing table the summary would have shown
+    assert (work / "out" / "results.h5").exists() and (work / "out" / "log.txt").exists()
+    r = run(venv / "bin" / "python", "-m", "pdem_analysis", "summary", "out")
+    assert r.returncode == 2 and r.stderr.count("\n") == 1 and "matplotlib" in r.stderr, r.stderr
 
 
 def test_post_processing_without_matplotlib_is_a_note_not_a_failure(monkeypatch, capsys, tmp_path):

@@ -256,7 +256,7 @@ class PreparedRun(StagedRun):
         """The stage-end line and snapshot (every stage of a prepared run)."""
         top = observables.bed_top(sim)
         self.loop.log(f"stage {name} done at t = {sim.time:.4f} s, step {sim.step}: unbalanced force ratio "
-                      f"{observables.unbalanced_force(sim):.3g}, bed top {top:.4f} m" + self.bodies_note(sim))
+                      f"{observables.unbalanced_force(sim):.3g}, bed top {1e3 * top:.1f} mm" + self.bodies_note(sim))
         self.snapshot(sim, stage_end=True)
 
 
@@ -289,7 +289,8 @@ def settle_stage(run, scene, name="settle", open=keep_tables, at_rest=always):
         run.stage_done(sim, name)
         run.prep.append(run.prep_sample(sim))
 
-    return Stage(name, scene, program, open=open, close=close, record=run.stage_record)
+    return Stage(name, scene, program, open=open, close=close, record=run.stage_record,
+                 length=(c["settle_max_time"], False))
 
 
 def pour_stage(run, scene, fill, at_rest=always):
@@ -332,4 +333,4 @@ def vibrate_stage(run, scene, trim=keep_tables):
         run.prep.append(run.prep_sample(sim))
 
     return Stage("vibrate", scene, program, open=trim, prepare=prepare, close=close, record=run.stage_record,
-                 max_steps=0 if c["vibration_time"] == 0 else 10**15)
+                 max_steps=0 if c["vibration_time"] == 0 else 10**15, length=(c["vibration_time"], True))
