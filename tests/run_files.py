@@ -1,6 +1,7 @@
 """What a run holds or wrote, for the tests that compare runs bit for bit: the bodies of a running
-simulation gathered from every rank in gid order, every dataset of an HDF5 file, and what differs
-between two runs' HDF5 outputs and final checkpoints."""
+simulation gathered from every rank in gid order, its checkpoint tables by key, the comparison of
+both with a reference, every dataset of an HDF5 file, and what differs between two runs' HDF5
+outputs and final checkpoints."""
 from pathlib import Path
 
 import h5py
@@ -16,6 +17,46 @@ def bodies_by_gid(comm, sim):
     cols = [comm.allgather_rows(getattr(p, k)[:n].copy()) for k in ("gid", "pos", "vel", "angvel", "force", "torque")]
     o = np.argsort(cols[0])
     return [c[o] for c in cols]
+
+
+def tables_by_key(comm, sim):
+    """{table: {column: array}} of the simulation's checkpoint tables gathered from every rank in
+    key order (gid, key or index); a pair straddling a slab edge is held twice and kept once."""
+    tables, _ = sim.checkpoint_tables()
+    out = {}
+    for t, cols in tables.items():
+        cols = {c: comm.allgather_rows(np.ascontiguousarray(a)) for c, a in cols.items()}
+        key = cols.get("gid", cols.get("key", cols.get("index")))
+        _, first = np.unique(key, return_index=True)  # straddling pairs: two identical copies
+        out[t] = {c: a[first] for c, a in cols.items()}
+    return out
+
+
+def state(sim, comm):
+    """What `state_differences` compares: bodies by gid, tables by key, step, time, Δt and the
+    energy check's reference."""
+    return {"bodies": bodies_by_gid(comm, sim), "tables": tables_by_key(comm, sim),
+            "scalars": (sim.step, sim.time, sim.dt, sim.energy_reference)}
+
+
+def _same_bits(a, b):
+    return a.shape == b.shape and np.array_equal(a.view(np.uint8), b.view(np.uint8))
+
+
+def state_differences(ref, comm, sim):
+    """The names of what differs, bit for bit, between the `state` ``ref`` and ``sim`` gathered
+    over ``comm`` (collective; the same list on every rank): body columns, table/column, scalars."""
+    bad = [name for name, a, b in zip(("gid", "pos", "vel", "angvel", "force", "torque"), ref["bodies"],
+                                      bodies_by_gid(comm, sim)) if not _same_bits(a, b)]
+    got = tables_by_key(comm, sim)
+    if sorted(got) != sorted(ref["tables"]):
+        bad.append(f"tables {sorted(set(got) ^ set(ref['tables']))}")
+    else:
+        bad += [f"{t}/{c}" for t, cols in ref["tables"].items() for c, a in cols.items()
+                if not _same_bits(a, got[t][c])]
+    if (sim.step, sim.time, sim.dt, sim.energy_reference) != ref["scalars"]:
+        bad.append("step, time, dt or energy reference")
+    return bad
 
 
 def datasets(path):

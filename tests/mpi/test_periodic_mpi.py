@@ -11,8 +11,7 @@ on the same ranks and on one rank, continued to N, and compared again.
 """
 import numpy as np
 from factories import periodic_lattice_scene
-from run_files import bodies_by_gid
-from test_restart_mpi import tables_by_key
+from run_files import bodies_by_gid, state, state_differences
 
 from pdem.io.checkpoint import read_checkpoint, write_checkpoint
 from pdem.parallel.comm import SerialComm, configure_threads
@@ -41,26 +40,14 @@ def reference():
             ref.run(100)
             crossing += across_ends(ref)
         ref.run(N_STEPS - ref.step)
-        c = SerialComm()
-        _REFERENCE.update(state=bodies_by_gid(c, ref), tables=tables_by_key(c, ref),
-                          scalars=(ref.step, ref.time, ref.dt, ref.energy_reference), wrapped=ref.domain.n_wrapped,
-                          crossing=crossing, cpp=ref.contacts_per_particle())
+        _REFERENCE.update(state(ref, SerialComm()), wrapped=ref.domain.n_wrapped, crossing=crossing,
+                          cpp=ref.contacts_per_particle())
     return _REFERENCE
 
 
 def assert_matches(comm, sim, what):
-    ref = reference()
-    names = ("gid", "pos", "vel", "angvel", "force", "torque")
-    same = {k: bool(a.shape == b.shape and np.array_equal(a.view(np.uint8), b.view(np.uint8)))
-            for k, a, b in zip(names, ref["state"], bodies_by_gid(comm, sim))}
-    assert not comm.any_flag(not all(same.values())), f"{what}: rank {comm.rank}: differs from one rank: {same}"
-    got = tables_by_key(comm, sim)
-    assert sorted(got) == sorted(ref["tables"]), what
-    for t, cols in ref["tables"].items():
-        for c, a in cols.items():
-            b = got[t][c]
-            assert a.shape == b.shape and np.array_equal(a.view(np.uint8), b.view(np.uint8)), f"{what}: {t}/{c}"
-    assert (sim.step, sim.time, sim.dt, sim.energy_reference) == ref["scalars"], what
+    bad = state_differences(reference(), comm, sim)
+    assert bad == [], f"{what}: rank {comm.rank}: differs from one rank: {bad}"
 
 
 def test_periodic_same_bits_on_any_rank_count(comm):
@@ -100,7 +87,7 @@ def test_periodic_restart(comm, mpi_tmp_path):
     alone.run(N_STEPS - K_STEP)
     c = SerialComm()
     ref = reference()
-    for name, a, b in zip(("gid", "pos", "vel"), ref["state"], bodies_by_gid(c, alone)):
+    for name, a, b in zip(("gid", "pos", "vel"), ref["bodies"], bodies_by_gid(c, alone)):
         assert np.array_equal(a.view(np.uint8), b.view(np.uint8)), f"restart on one rank: {name}"
 
 

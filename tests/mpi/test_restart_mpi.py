@@ -8,9 +8,8 @@ and torques of every body (by gid), the contact tables, Δt, time and the energy
 must equal the reference to the last bit. Restores of a 2-rank checkpoint onto 1, 2 and 3 ranks
 through the command line: tests/io/test_restart_cli.py.
 """
-import numpy as np
 from factories import lattice_scene
-from run_files import bodies_by_gid
+from run_files import state, state_differences
 
 from pdem.io.checkpoint import read_checkpoint, write_checkpoint
 from pdem.parallel.comm import SerialComm, configure_threads
@@ -25,39 +24,17 @@ def make_scene():
                          check_interval=40)[0]
 
 
-def tables_by_key(comm, sim):
-    tables, _ = sim.checkpoint_tables()
-    out = {}
-    for t, cols in tables.items():
-        cols = {c: comm.allgather_rows(np.ascontiguousarray(a)) for c, a in cols.items()}
-        key = cols.get("gid", cols.get("key", cols.get("index")))
-        _, first = np.unique(key, return_index=True)  # straddling pairs: two identical copies
-        out[t] = {c: a[first] for c, a in cols.items()}
-    return out
-
-
 def reference():
     if not _REFERENCE:
         ref = make_scene().build(comm=SerialComm())
         ref.run(N_STEPS)
-        c = SerialComm()
-        _REFERENCE["state"] = bodies_by_gid(c, ref)
-        _REFERENCE["tables"] = tables_by_key(c, ref)
-        _REFERENCE["scalars"] = (ref.step, ref.time, ref.dt, ref.energy_reference)
+        _REFERENCE.update(state(ref, SerialComm()))
     return _REFERENCE
 
 
 def assert_matches(comm, sim, what):
-    ref = reference()
-    for name, a, b in zip(("gid", "pos", "vel", "angvel", "force", "torque"), ref["state"], bodies_by_gid(comm, sim)):
-        assert a.shape == b.shape and np.array_equal(a.view(np.uint8), b.view(np.uint8)), f"{what}: {name}"
-    got = tables_by_key(comm, sim)
-    assert sorted(got) == sorted(ref["tables"]), what
-    for t, cols in ref["tables"].items():
-        for c, a in cols.items():
-            b = got[t][c]
-            assert a.shape == b.shape and np.array_equal(a.view(np.uint8), b.view(np.uint8)), f"{what}: {t}/{c}"
-    assert (sim.step, sim.time, sim.dt, sim.energy_reference) == ref["scalars"], what
+    bad = state_differences(reference(), comm, sim)
+    assert bad == [], f"{what}: {bad}"
 
 
 def test_restart_on_this_rank_count_and_on_one(comm, mpi_tmp_path):

@@ -12,7 +12,6 @@ bodies of the 1-rank run there; a 2-rank run resumed in the middle of passage 2 
 records; every body stays inside the period.
 """
 import copy
-import shutil
 
 import numpy as np
 import pytest
@@ -22,9 +21,9 @@ from pdem.format.groups import read_track
 from pdem.io.checkpoint import list_checkpoints, read_checkpoint
 from pdem.driver.stages import empty_tables
 from pdem.scenes.track import profile, stage_scene, track_settings, traffic_settings
-from pdem_cli import needs_mpiexec, run_pdem
-from run_files import datasets
+from pdem_cli import needs_mpiexec
 from test_track import DOC
+from track_runs import assert_resume_in_passage_2, assert_same_bodies_on_3_ranks, assert_same_results, prepared_runs
 from test_track_beam import PREPARE, beam_scene
 
 
@@ -70,12 +69,7 @@ def test_bad_periodic_track_input_is_one_line(traffic, simulation, message):
 @pytest.fixture(scope="module")
 def periodic_runs(tmp_path_factory):
     base = tmp_path_factory.mktemp("periodic_track")
-    (base / "prepare.toml").write_text(periodic(PREPARE))
-    run_pdem(1, base / "prepare.toml", base / "bed")
-    scene = base / "traffic.toml"
-    scene.write_text(periodic(beam_scene(base, base / "bed", passages=2)))
-    r1 = run_pdem(1, scene, base / "r1")
-    r2 = run_pdem(2, scene, base / "r2")
+    scene, r1, r2 = prepared_runs(base, periodic(PREPARE), lambda bed: periodic(beam_scene(base, bed, passages=2)))
     return base, scene, r1, r2
 
 
@@ -96,30 +90,7 @@ def test_periodic_track_passages(periodic_runs):
 @pytest.mark.slow
 def test_periodic_track_same_bits_on_1_2_3_ranks_and_after_a_restart(periodic_runs):
     base, scene, _, _ = periodic_runs
-    a, b = datasets(base / "r1" / "results.h5"), datasets(base / "r2" / "results.h5")
-    assert sorted(a) == sorted(b) and "passages/load_peak" in a
-    for k in a:
-        assert np.array_equal(a[k], b[k]), f"/{k} differs between 1 and 2 ranks"
-    out = base / "steps3"
-    run_pdem(3, scene, out, "--steps", "4200")  # the prepared bed is at step 3800: 400 steps of traffic
-    got = read_checkpoint(out / "checkpoints" / "ckpt_000000004200.h5")[0]
-    ref = read_checkpoint(base / "r1" / "checkpoints" / "ckpt_000000004200.h5")[0]
-    for col in ref["particles"]:
-        assert np.array_equal(ref["particles"][col], got["particles"][col]), f"step 4200, 3 ranks: particles/{col}"
-    assert np.array_equal(ref["boxes"]["center"], got["boxes"]["center"])
-    resumed = base / "resume"
-    shutil.copytree(base / "r2", resumed)
-    ends = read_track(resumed / "results.h5").passages["t_end"]
-    steps = [s for s, _ in list_checkpoints(resumed / "checkpoints")]
-    inside = [s for s in steps[:-1]
-              if ends[0] < read_checkpoint(resumed / "checkpoints" / f"ckpt_{s:012d}.h5")[1]["time"] < ends[1]]
-    mid = inside[len(inside) // 2]  # inside passage 2
-    for s, path in list_checkpoints(resumed / "checkpoints"):
-        if s > mid:
-            path.unlink()
-    r = run_pdem(2, scene, resumed)
-    assert f"at step {mid} (stage traffic" in r.stdout
-    c = datasets(resumed / "results.h5")
-    assert sorted(a) == sorted(c)
-    for k in a:
-        assert np.array_equal(a[k], c[k]), f"/{k} differs after the restart"
+    a = assert_same_results(base / "r1" / "results.h5", base / "r2" / "results.h5", "1 and 2 ranks")
+    assert "passages/load_peak" in a
+    assert_same_bodies_on_3_ranks(base, scene, 4200)  # the prepared bed is at step 3800: 400 steps of traffic
+    assert_resume_in_passage_2(base, scene)
