@@ -1,0 +1,202 @@
+"""Cost of one passage of a track run at full stiffness, measured here and projected to P ranks.
+
+    python -m bench.track_passage_cost bed PREPARED SCENE OUT.h5
+    mpiexec -n R python -m pdem run SCENE_WITH_BED --out RUN_R --steps S      (R = 1 and 2)
+    python -m bench.track_passage_cost cost SCENE --run1 RUN_1 --run2 RUN_2 [--ranks 2 16 64 256] [--json F]
+
+A full-stiffness track (E_k = 2.8e11 Pa) steps at Δt ~ 1e-6 s, so its preparation alone is
+millions of steps. The cost of a traffic step does not depend on the stiffness (the same
+spheres, contacts and code), only the number of steps does, so it is measured on a bed that
+needs no preparation at full stiffness:
+
+``bed``: a copy of PREPARED (the ``prepared.h5`` of the same track at scaled stiffness) that the
+full-stiffness scene SCENE accepts as its ``[traffic] prepared``: its record of the scene file is
+replaced by SCENE's, which must describe the same track (the ``[track]`` tables equal, one line
+and exit 2 otherwise). Nothing else changes: the contacts carried from the soft bed keep their
+stiffness and new ones get the full stiffness. **For timing only**: the bed is not in
+equilibrium at full stiffness (a few hundred steps of 1e-6 s move it by nothing measurable),
+and its settlement means nothing. The traffic's Δt is computed afresh from SCENE's materials and
+rail (`pdem.timestep`, with the pads' checks), as in a real run.
+
+``cost``: from the ``scaling.json`` of a 1-rank and a 2-rank run of SCENE from that bed
+(``pdem run --steps``: a few hundred traffic steps each) and the Δt in their checkpoint,
+
+    steps per passage   n_p = period / Δt     (period of `pdem.boundaries.loads.AxleTrain`: the
+                                                first axle from x_from to x_to, the last axle's
+                                                offset, at ``speed``, plus ``rest_time``) [-]
+    measured, 2 ranks   t_2 = pdem's timers (the slower rank) / steps  [s/step]
+                        core-hours per passage = 2 t_2 n_p / 3600
+    projected, P ranks  t(P) = f + t_model(N, P)      [s/step]
+
+t_model is `bench.scaling_model.track_step` (docs/scaling.md "Track section": compute b c N/P +
+c_g g, ghost messages, packing u g + o, the sleepers' allreduce) with c the 1-rank compute per
+body-step (timers neighbours + contacts + integration over steps and bodies), the halo g, the
+imbalance b measured at 2 ranks (the ``loads`` of the 2-rank scaling.json), α, β of
+``bench/pingpong.json`` and the packing's u, o of ``bench/track_scaling.json`` (measured for the
+large track; per ghost and per step, so they carry over). f is the 1-rank time per step outside those timers ("output",
+"other": the rail beam's solve, the sleepers' loads and records, the step loop's Python): work
+that does not shrink with P, kept whole on every rank (so the projection is pessimistic where
+it is parallel in fact). P_max = L/h (L the track's length, h the halo): slabs thinner than the
+halo are not possible, and such rows are marked so. Units: [s], [m], [N]; hours as printed.
+"""
+import argparse
+import json
+import os
+import shutil
+import sys
+import tempfile
+import tomllib
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+COMPUTE = ("neighbours", "contacts", "integration")
+
+
+class BadInput(Exception):
+    """One line naming what is wrong (exit 2)."""
+
+
+def make_bed(prepared, scene, out):
+    """Write the copy of ``prepared`` that ``scene`` accepts as ``[traffic] prepared`` (above)."""
+    from pdem.io.checkpoint import CheckpointError, read_checkpoint, write_checkpoint
+    from pdem.parallel.comm import SerialComm
+
+    try:
+        tables, meta = read_checkpoint(prepared)
+    except CheckpointError as exc:
+        raise BadInput(f"PREPARED = {str(prepared)!r}: {exc}") from None
+    text = Path(scene).read_text()
+    there = tomllib.loads(meta["scene_file"]).get("track", {})
+    here = tomllib.loads(text).get("track", {})
+    for k in sorted(set(there) | set(here)):
+        if there.get(k) != here.get(k):
+            raise BadInput(f"SCENE = {str(scene)!r}: track.{k} = {here.get(k, '(absent)')!r}, the prepared bed's "
+                           f"{there.get(k, '(absent)')!r}: not the same track")
+    meta = {**meta, "scene_file": text, "scene_path": str(scene)}
+    with tempfile.TemporaryDirectory(dir=Path(out).parent) as tmp:
+        written = write_checkpoint(tmp, int(meta["step"]), tables, meta, SerialComm(), keep=None)
+        shutil.move(written, out)
+    return Path(out)
+
+
+def passage_period(scene):
+    """(period of one passage [s], sleepers' track length [m]) of the scene file's traffic."""
+    from pdem.scenes.track import make_train, profile, track_settings, traffic_settings
+
+    doc = tomllib.loads(Path(scene).read_text())
+    c = track_settings(doc)
+    t = traffic_settings(doc, c)
+    if t is None or t["program"] != "axles":
+        raise BadInput(f"SCENE = {str(scene)!r}: needs [traffic] program = 'axles' (trains with a period)")
+    return make_train(t, c, 0.0).period, profile(c)["length"], int(t["passages"])
+
+
+def run_dt(run):
+    """Δt of the newest checkpoint of a run [s] (the traffic's, after `pdem run --steps`)."""
+    from pdem.io.checkpoint import list_checkpoints, read_checkpoint
+
+    found = list_checkpoints(Path(run) / "checkpoints")
+    if not found:
+        raise BadInput(f"RUN = {str(run)!r}: no checkpoint (run it with pdem run --steps)")
+    return float(read_checkpoint(found[-1][1])[1]["dt"])
+
+
+def cost(scene, run1, run2, ranks, passages=None):
+    """The measured and projected cost of a passage (module docstring) as a dict."""
+    from bench.scaling_model import track_step
+
+    period, length, n_passages = passage_period(scene)
+    passages = passages or n_passages
+    r1 = json.loads((Path(run1) / "scaling.json").read_text())
+    r2 = json.loads((Path(run2) / "scaling.json").read_text())
+    if r1["ranks"] != 1 or r2["ranks"] != 2:
+        raise BadInput(f"--run1 must be a 1-rank run and --run2 a 2-rank run (got {r1['ranks']}, {r2['ranks']} ranks)")
+    dt1, dt2 = run_dt(run1), run_dt(run2)
+    if dt1 != dt2:
+        raise BadInput(f"the two runs stepped at different Δt ({dt1:.6g}, {dt2:.6g} s): not the same scene")
+    ld = r2["loads"]
+    pp = json.loads((HERE / "pingpong.json").read_text())["sendrecv"]
+    stored = json.loads((HERE / "track_scaling.json").read_text())["inputs"]
+    m = {"n_x": r1["bodies"] / r1["track_length"], "spacing": r1["spacing"], "g2": max(ld["ghosts"]),
+         "b": ld["imbalance"], "h": ld["halo"], "alpha": pp["alpha_s"], "beta": pp["beta_B_per_s"],
+         "u": stored["u"], "o": stored["o"]}
+    n, steps1 = r1["bodies"], r1["steps"]
+    c_body = sum(r1["timers_max_s"][k] for k in COMPUTE) / steps1 / n
+    f = r1["timers_total_max_s"] / steps1 - c_body * n
+    t2 = r2["timers_total_max_s"] / r2["steps"]
+    n_p = period / dt1
+    p_max = int(length / m["h"])
+    rows = []
+    for P in ranks:
+        t = (r1["timers_total_max_s"] / steps1 if P == 1
+             else f + track_step(m, n, P, m["alpha"], m["beta"], c=c_body)[0])
+        rows.append({"P": P, "t_step": t, "possible": P <= p_max, "efficiency": (f + c_body * n) / (P * t),
+                     "wall_h_per_passage": t * n_p / 3600, "core_h_per_passage": P * t * n_p / 3600,
+                     "wall_h_run": t * n_p * passages / 3600, "core_h_run": P * t * n_p * passages / 3600})
+    return {"scene": str(scene), "runs": [str(run1), str(run2)], "bodies": n, "dt": dt1, "period": period,
+            "steps_per_passage": n_p, "passages": passages, "track_length": length, "halo": m["h"],
+            "P_max": p_max, "c_body": c_body, "f_fixed": f, "t1": r1["timers_total_max_s"] / steps1,
+            "t2": t2, "t2_model": f + track_step(m, n, 2, m["alpha"], m["beta"], c=c_body)[0],
+            "steps_measured": [steps1, r2["steps"]], "uptime": [r1.get("uptime"), r2.get("uptime")],
+            "measured_2_ranks": {"steps_per_s": 1.0 / t2, "wall_h_per_passage": t2 * n_p / 3600,
+                                 "core_h_per_passage": 2 * t2 * n_p / 3600},
+            "alpha": m["alpha"], "beta": m["beta"], "u": m["u"], "o": m["o"], "b": m["b"], "ghosts_2": m["g2"],
+            "rows": rows}
+
+
+def cost_lines(r):
+    """The cost as text (what the campaign header and docs/track.md quote)."""
+    lines = [f"scene {r['scene']}: {r['bodies']} bodies, Δt = {r['dt']:.4g} s, a passage {r['period']:.4g} s = "
+             f"{r['steps_per_passage']:.0f} steps; track {r['track_length']:g} m, halo {r['halo'] * 1e3:.1f} mm: "
+             f"P_max = L/h = {r['P_max']}",
+             f"measured ({r['steps_measured'][0]} / {r['steps_measured'][1]} steps on 1 / 2 ranks, load average "
+             f"{r['uptime']}): 1 rank {r['t1'] * 1e3:.2f} ms/step (compute {r['c_body'] * 1e9:.0f} ns per body-step, "
+             f"fixed {r['f_fixed'] * 1e3:.2f} ms/step); 2 ranks {r['t2'] * 1e3:.2f} ms/step = "
+             f"{r['measured_2_ranks']['steps_per_s']:.0f} steps/s (model {r['t2_model'] * 1e3:.2f} ms/step)",
+             f"measured, 2 ranks: {r['measured_2_ranks']['wall_h_per_passage']:.2f} h and "
+             f"{r['measured_2_ranks']['core_h_per_passage']:.2f} core-h per passage",
+             f"{'P':>5} {'t/step ms':>10} {'E':>6} {'wall h/passage':>15} {'core-h/passage':>15} "
+             f"{'wall h, ' + str(r['passages']) + ' passages':>22} {'core-h, all':>12}"]
+    for w in r["rows"]:
+        lines.append(f"{w['P']:>5} {w['t_step'] * 1e3:>10.3f} {w['efficiency']:>6.2f} {w['wall_h_per_passage']:>15.3f} "
+                     f"{w['core_h_per_passage']:>15.2f} {w['wall_h_run']:>22.2f} {w['core_h_run']:>12.1f}"
+                     + ("" if w["possible"] else "   slab thinner than the halo: not possible"))
+    return lines
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(prog="python -m bench.track_passage_cost", allow_abbrev=False)
+    sub = ap.add_subparsers(dest="cmd", required=True)
+    b = sub.add_parser("bed", help="the scaled prepared bed as the full-stiffness scene's prepared bed (timing only)")
+    b.add_argument("prepared", type=Path)
+    b.add_argument("scene", type=Path)
+    b.add_argument("out", type=Path)
+    c = sub.add_parser("cost", help="steps, time and core-hours per passage, measured and projected")
+    c.add_argument("scene", type=Path)
+    c.add_argument("--run1", type=Path, required=True)
+    c.add_argument("--run2", type=Path, required=True)
+    c.add_argument("--ranks", type=int, nargs="+", default=[1, 2, 8, 16, 32, 64, 256])
+    c.add_argument("--passages", type=int, help="passages of the whole run (default: the scene's)")
+    c.add_argument("--json", type=Path, help="write the numbers there")
+    a = ap.parse_args(argv)
+    from pdem.errors import InputError
+
+    try:
+        if a.cmd == "bed":
+            print(f"wrote {make_bed(a.prepared, a.scene, a.out)} (timing only: see bench/track_passage_cost.py)")
+            return 0
+        if any(p < 1 for p in a.ranks):
+            raise BadInput(f"--ranks {a.ranks}: rank counts must be >= 1")
+        r = cost(a.scene, a.run1, a.run2, a.ranks, a.passages)
+    except (BadInput, InputError, OSError) as exc:  # one line, exit 2
+        print(f"bench.track_passage_cost: error: {exc}", file=sys.stderr)
+        return 2
+    print("\n".join(cost_lines(r)))
+    if a.json:
+        a.json.write_text(json.dumps(r, indent=1) + "\n")
+    return 0
+
+
+if __name__ == "__main__":
+    os.environ.setdefault("OMP_NUM_THREADS", "1")
+    sys.exit(main())
