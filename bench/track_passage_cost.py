@@ -1,8 +1,8 @@
 """Cost of one passage of a track run at full stiffness, measured here and projected to P ranks.
 
     python -m bench.track_passage_cost bed PREPARED SCENE OUT.h5
-    mpiexec -n R python -m pdem run SCENE_WITH_BED --out RUN_R --steps S      (R = 1 and 2)
-    python -m bench.track_passage_cost cost SCENE --run1 RUN_1 --run2 RUN_2 [--ranks 2 16 64 256] [--json F]
+    mpiexec -n 2 python -m pdem run SCENE_WITH_BED --out RUN_2 --steps S    (and -n 1 ... RUN_1, a check)
+    python -m bench.track_passage_cost cost SCENE --run2 RUN_2 [--run1 RUN_1] [--ranks 1 2 8 64 256] [--json F]
 
 A full-stiffness track (E_k = 2.8e11 Pa) steps at Δt ~ 1e-6 s, so its preparation alone is
 millions of steps. The cost of a traffic step does not depend on the stiffness (the same
@@ -18,8 +18,8 @@ equilibrium at full stiffness (a few hundred steps of 1e-6 s move it by nothing 
 and its settlement means nothing. The traffic's Δt is computed afresh from SCENE's materials and
 rail (`pdem.timestep`, with the pads' checks), as in a real run.
 
-``cost``: from the ``scaling.json`` of a 1-rank and a 2-rank run of SCENE from that bed
-(``pdem run --steps``: a few hundred traffic steps each) and the Δt in their checkpoint,
+``cost``: from the ``scaling.json`` of a 2-rank run of SCENE from that bed (``pdem run
+--steps``: a few hundred traffic steps or more) and the Δt in its checkpoint,
 
     steps per passage   n_p = period / Δt     (period of `pdem.boundaries.loads.AxleTrain`: the
                                                 first axle from x_from to x_to, the last axle's
@@ -29,15 +29,18 @@ rail (`pdem.timestep`, with the pads' checks), as in a real run.
     projected, P ranks  t(P) = f + t_model(N, P)      [s/step]
 
 t_model is `bench.scaling_model.track_step` (docs/scaling.md "Track section": compute b c N/P +
-c_g g, ghost messages, packing u g + o, the sleepers' allreduce) with c the 1-rank compute per
-body-step (timers neighbours + contacts + integration over steps and bodies), the halo g, the
-imbalance b measured at 2 ranks (the ``loads`` of the 2-rank scaling.json), α, β of
+c_g g, ghost messages, packing u g + o, the sleepers' allreduce), calibrated on the 2-rank run:
+c from its compute (timers neighbours + contacts + integration per step = b c N/2 + c_g g with
+c_g = c/2, g its ghosts), the imbalance b and halo from its ``loads``, α, β of
 ``bench/pingpong.json`` and the packing's u, o of ``bench/track_scaling.json`` (measured for the
-large track; per ghost and per step, so they carry over). f is the 1-rank time per step outside those timers ("output",
-"other": the rail beam's solve, the sleepers' loads and records, the step loop's Python): work
-that does not shrink with P, kept whole on every rank (so the projection is pessimistic where
-it is parallel in fact). P_max = L/h (L the track's length, h the halo): slabs thinner than the
-halo are not possible, and such rows are marked so. Units: [s], [m], [N]; hours as printed.
+large track; per ghost and per step, so they carry over). f is its time per step outside the
+compute and communication timers ("output", "other": the rail beam's solve, the sleepers' loads
+and records, the step loop's Python): work that does not shrink with P, kept whole on every rank
+(so the projection is pessimistic where it is parallel in fact). The measured communication
+(waiting for the other rank included) is not in the model, which has the messages and packing
+only. A 1-rank run (``--run1``) is printed beside the model's t(1) as a check. P_max = L/h (L
+the track's length, h the halo): slabs thinner than the halo are not possible, and such rows
+are marked so. Units: [s], [m], [N]; hours as printed.
 """
 import argparse
 import json
@@ -101,43 +104,51 @@ def run_dt(run):
     return float(read_checkpoint(found[-1][1])[1]["dt"])
 
 
-def cost(scene, run1, run2, ranks, passages=None):
+def cost(scene, run2, ranks, passages=None, run1=None):
     """The measured and projected cost of a passage (module docstring) as a dict."""
     from bench.scaling_model import track_step
 
     period, length, n_passages = passage_period(scene)
     passages = passages or n_passages
-    r1 = json.loads((Path(run1) / "scaling.json").read_text())
     r2 = json.loads((Path(run2) / "scaling.json").read_text())
-    if r1["ranks"] != 1 or r2["ranks"] != 2:
-        raise BadInput(f"--run1 must be a 1-rank run and --run2 a 2-rank run (got {r1['ranks']}, {r2['ranks']} ranks)")
-    dt1, dt2 = run_dt(run1), run_dt(run2)
-    if dt1 != dt2:
-        raise BadInput(f"the two runs stepped at different Δt ({dt1:.6g}, {dt2:.6g} s): not the same scene")
+    if r2["ranks"] != 2:
+        raise BadInput(f"--run2 must be a 2-rank run (got {r2['ranks']} ranks)")
+    r1 = None if run1 is None else json.loads((Path(run1) / "scaling.json").read_text())
+    if r1 is not None and r1["ranks"] != 1:
+        raise BadInput(f"--run1 must be a 1-rank run (got {r1['ranks']} ranks)")
+    dt = run_dt(run2)
+    if r1 is not None and run_dt(run1) != dt:
+        raise BadInput(f"the two runs stepped at different Δt ({run_dt(run1):.6g}, {dt:.6g} s): not the same scene")
     ld = r2["loads"]
     pp = json.loads((HERE / "pingpong.json").read_text())["sendrecv"]
     stored = json.loads((HERE / "track_scaling.json").read_text())["inputs"]
-    m = {"n_x": r1["bodies"] / r1["track_length"], "spacing": r1["spacing"], "g2": max(ld["ghosts"]),
-         "b": ld["imbalance"], "h": ld["halo"], "alpha": pp["alpha_s"], "beta": pp["beta_B_per_s"],
-         "u": stored["u"], "o": stored["o"]}
-    n, steps1 = r1["bodies"], r1["steps"]
-    c_body = sum(r1["timers_max_s"][k] for k in COMPUTE) / steps1 / n
-    f = r1["timers_total_max_s"] / steps1 - c_body * n
-    t2 = r2["timers_total_max_s"] / r2["steps"]
-    n_p = period / dt1
+    n, steps2 = r2["bodies"], r2["steps"]
+    m = {"n_x": n / r2["track_length"], "spacing": r2["spacing"], "g2": max(ld["ghosts"]), "b": ld["imbalance"],
+         "h": ld["halo"], "alpha": pp["alpha_s"], "beta": pp["beta_B_per_s"], "u": stored["u"], "o": stored["o"]}
+    timers = r2["timers_max_s"]
+    compute2 = sum(timers[k] for k in COMPUTE) / steps2
+    c_body = compute2 / (m["b"] * n / 2 + 0.5 * m["g2"])  # compute2 = b c N/2 + c_g g, c_g = c/2
+    f = (r2["timers_total_max_s"] - sum(timers[k] for k in COMPUTE) - timers["communication"]) / steps2
+    t2 = r2["timers_total_max_s"] / steps2
+    n_p = period / dt
     p_max = int(length / m["h"])
+
+    def t_model(P):
+        return f + track_step(m, n, P, m["alpha"], m["beta"], c=c_body)[0]
+
     rows = []
     for P in ranks:
-        t = (r1["timers_total_max_s"] / steps1 if P == 1
-             else f + track_step(m, n, P, m["alpha"], m["beta"], c=c_body)[0])
-        rows.append({"P": P, "t_step": t, "possible": P <= p_max, "efficiency": (f + c_body * n) / (P * t),
+        t = t_model(P)
+        rows.append({"P": P, "t_step": t, "possible": P <= p_max, "efficiency": t_model(1) / (P * t),
                      "wall_h_per_passage": t * n_p / 3600, "core_h_per_passage": P * t * n_p / 3600,
                      "wall_h_run": t * n_p * passages / 3600, "core_h_run": P * t * n_p * passages / 3600})
-    return {"scene": str(scene), "runs": [str(run1), str(run2)], "bodies": n, "dt": dt1, "period": period,
-            "steps_per_passage": n_p, "passages": passages, "track_length": length, "halo": m["h"],
-            "P_max": p_max, "c_body": c_body, "f_fixed": f, "t1": r1["timers_total_max_s"] / steps1,
-            "t2": t2, "t2_model": f + track_step(m, n, 2, m["alpha"], m["beta"], c=c_body)[0],
-            "steps_measured": [steps1, r2["steps"]], "uptime": [r1.get("uptime"), r2.get("uptime")],
+    return {"scene": str(scene), "runs": [None if run1 is None else str(run1), str(run2)], "bodies": n, "dt": dt,
+            "period": period, "steps_per_passage": n_p, "passages": passages, "track_length": length,
+            "halo": m["h"], "P_max": p_max, "c_body": c_body, "f_fixed": f,
+            "t1": None if r1 is None else r1["timers_total_max_s"] / r1["steps"], "t1_model": t_model(1),
+            "t2": t2, "t2_model": t_model(2), "compute2": compute2, "comm2": timers["communication"] / steps2,
+            "steps_measured": [None if r1 is None else r1["steps"], steps2],
+            "uptime": [None if r1 is None else r1.get("uptime"), r2.get("uptime")],
             "measured_2_ranks": {"steps_per_s": 1.0 / t2, "wall_h_per_passage": t2 * n_p / 3600,
                                  "core_h_per_passage": 2 * t2 * n_p / 3600},
             "alpha": m["alpha"], "beta": m["beta"], "u": m["u"], "o": m["o"], "b": m["b"], "ghosts_2": m["g2"],
@@ -149,10 +160,12 @@ def cost_lines(r):
     lines = [f"scene {r['scene']}: {r['bodies']} bodies, Δt = {r['dt']:.4g} s, a passage {r['period']:.4g} s = "
              f"{r['steps_per_passage']:.0f} steps; track {r['track_length']:g} m, halo {r['halo'] * 1e3:.1f} mm: "
              f"P_max = L/h = {r['P_max']}",
-             f"measured ({r['steps_measured'][0]} / {r['steps_measured'][1]} steps on 1 / 2 ranks, load average "
-             f"{r['uptime']}): 1 rank {r['t1'] * 1e3:.2f} ms/step (compute {r['c_body'] * 1e9:.0f} ns per body-step, "
-             f"fixed {r['f_fixed'] * 1e3:.2f} ms/step); 2 ranks {r['t2'] * 1e3:.2f} ms/step = "
-             f"{r['measured_2_ranks']['steps_per_s']:.0f} steps/s (model {r['t2_model'] * 1e3:.2f} ms/step)",
+             f"measured on 2 ranks ({r['steps_measured'][1]} steps, load average {r['uptime'][1]}): "
+             f"{r['t2'] * 1e3:.2f} ms/step = {r['measured_2_ranks']['steps_per_s']:.0f} steps/s (compute "
+             f"{r['compute2'] * 1e3:.2f}, communication {r['comm2'] * 1e3:.2f}, the rest {r['f_fixed'] * 1e3:.2f} "
+             f"ms/step; model {r['t2_model'] * 1e3:.2f} ms/step: c = {r['c_body'] * 1e9:.0f} ns per body-step)"
+             + ("" if r["t1"] is None else f"; 1 rank ({r['steps_measured'][0]} steps, load average {r['uptime'][0]}): "
+                f"{r['t1'] * 1e3:.2f} ms/step, model {r['t1_model'] * 1e3:.2f}"),
              f"measured, 2 ranks: {r['measured_2_ranks']['wall_h_per_passage']:.2f} h and "
              f"{r['measured_2_ranks']['core_h_per_passage']:.2f} core-h per passage",
              f"{'P':>5} {'t/step ms':>10} {'E':>6} {'wall h/passage':>15} {'core-h/passage':>15} "
@@ -173,8 +186,9 @@ def main(argv=None):
     b.add_argument("out", type=Path)
     c = sub.add_parser("cost", help="steps, time and core-hours per passage, measured and projected")
     c.add_argument("scene", type=Path)
-    c.add_argument("--run1", type=Path, required=True)
-    c.add_argument("--run2", type=Path, required=True)
+    c.add_argument("--run2", type=Path, required=True, help="a 2-rank run of SCENE from the bed (pdem run --steps)")
+    c.add_argument("--run1", type=Path, help="a 1-rank run of the same: its time per step is printed beside the "
+                   "model's (a check)")
     c.add_argument("--ranks", type=int, nargs="+", default=[1, 2, 8, 16, 32, 64, 256])
     c.add_argument("--passages", type=int, help="passages of the whole run (default: the scene's)")
     c.add_argument("--json", type=Path, help="write the numbers there")
@@ -187,7 +201,7 @@ def main(argv=None):
             return 0
         if any(p < 1 for p in a.ranks):
             raise BadInput(f"--ranks {a.ranks}: rank counts must be >= 1")
-        r = cost(a.scene, a.run1, a.run2, a.ranks, a.passages)
+        r = cost(a.scene, a.run2, a.ranks, a.passages, run1=a.run1)
     except (BadInput, InputError, OSError) as exc:  # one line, exit 2
         print(f"bench.track_passage_cost: error: {exc}", file=sys.stderr)
         return 2
