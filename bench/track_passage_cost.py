@@ -40,7 +40,9 @@ and records, the step loop's Python): work that does not shrink with P, kept who
 (waiting for the other rank included) is not in the model, which has the messages and packing
 only. A 1-rank run (``--run1``) is printed beside the model's t(1) as a check. P_max = L/h (L
 the track's length, h the halo): slabs thinner than the halo are not possible, and such rows
-are marked so. Units: [s], [m], [N]; hours as printed.
+are marked so. ``--sleepers K``: the same model for the same cross-section and train over K
+sleepers (N = n_x K a bodies, n_x measured; a passage longer by (K a - L)/speed), for rank
+counts a short track cannot take. Units: [s], [m], [N]; hours as printed.
 """
 import argparse
 import json
@@ -83,7 +85,7 @@ def make_bed(prepared, scene, out):
 
 
 def passage_period(scene):
-    """(period of one passage [s], sleepers' track length [m]) of the scene file's traffic."""
+    """(period of one passage [s], track length [m], passages, speed [m/s]) of the scene file's traffic."""
     from pdem.scenes.track import make_train, profile, track_settings, traffic_settings
 
     doc = tomllib.loads(Path(scene).read_text())
@@ -91,7 +93,7 @@ def passage_period(scene):
     t = traffic_settings(doc, c)
     if t is None or t["program"] != "axles":
         raise BadInput(f"SCENE = {str(scene)!r}: needs [traffic] program = 'axles' (trains with a period)")
-    return make_train(t, c, 0.0).period, profile(c)["length"], int(t["passages"])
+    return make_train(t, c, 0.0).period, profile(c)["length"], int(t["passages"]), float(t["speed"])
 
 
 def run_dt(run):
@@ -104,11 +106,11 @@ def run_dt(run):
     return float(read_checkpoint(found[-1][1])[1]["dt"])
 
 
-def cost(scene, run2, ranks, passages=None, run1=None):
+def cost(scene, run2, ranks, passages=None, run1=None, sleepers=()):
     """The measured and projected cost of a passage (module docstring) as a dict."""
     from bench.scaling_model import track_step
 
-    period, length, n_passages = passage_period(scene)
+    period, length, n_passages, speed = passage_period(scene)
     passages = passages or n_passages
     r2 = json.loads((Path(run2) / "scaling.json").read_text())
     if r2["ranks"] != 2:
@@ -128,20 +130,30 @@ def cost(scene, run2, ranks, passages=None, run1=None):
     timers = r2["timers_max_s"]
     compute2 = sum(timers[k] for k in COMPUTE) / steps2
     c_body = compute2 / (m["b"] * n / 2 + 0.5 * m["g2"])  # compute2 = b c N/2 + c_g g, c_g = c/2
-    f = (r2["timers_total_max_s"] - sum(timers[k] for k in COMPUTE) - timers["communication"]) / steps2
+    f = (timers["output"] + timers["other"]) / steps2
     t2 = r2["timers_total_max_s"] / steps2
     n_p = period / dt
     p_max = int(length / m["h"])
 
-    def t_model(P):
-        return f + track_step(m, n, P, m["alpha"], m["beta"], c=c_body)[0]
+    def t_model(P, N=n):
+        return f + track_step(m, N, P, m["alpha"], m["beta"], c=c_body)[0]
 
-    rows = []
-    for P in ranks:
-        t = t_model(P)
-        rows.append({"P": P, "t_step": t, "possible": P <= p_max, "efficiency": t_model(1) / (P * t),
-                     "wall_h_per_passage": t * n_p / 3600, "core_h_per_passage": P * t * n_p / 3600,
-                     "wall_h_run": t * n_p * passages / 3600, "core_h_run": P * t * n_p * passages / 3600})
+    def table(N, n_steps, p_limit):
+        return [{"P": P, "t_step": t_model(P, N), "possible": P <= p_limit,
+                 "efficiency": t_model(1, N) / (P * t_model(P, N)),
+                 "wall_h_per_passage": t_model(P, N) * n_steps / 3600,
+                 "core_h_per_passage": P * t_model(P, N) * n_steps / 3600,
+                 "wall_h_run": t_model(P, N) * n_steps * passages / 3600,
+                 "core_h_run": P * t_model(P, N) * n_steps * passages / 3600} for P in ranks]
+
+    rows = table(n, n_p, p_max)
+    longer = []  # the same cross-section and train over K sleepers: N = n_x K a, the first axle K - K0 spacings further
+    for k in sleepers:
+        L = k * m["spacing"]
+        period_k = period + (L - length) / speed
+        longer.append({"sleepers": k, "length": L, "bodies": m["n_x"] * L, "period": period_k,
+                       "steps_per_passage": period_k / dt, "P_max": int(L / m["h"]),
+                       "rows": table(m["n_x"] * L, period_k / dt, int(L / m["h"]))})
     return {"scene": str(scene), "runs": [None if run1 is None else str(run1), str(run2)], "bodies": n, "dt": dt,
             "period": period, "steps_per_passage": n_p, "passages": passages, "track_length": length,
             "halo": m["h"], "P_max": p_max, "c_body": c_body, "f_fixed": f,
@@ -152,7 +164,7 @@ def cost(scene, run2, ranks, passages=None, run1=None):
             "measured_2_ranks": {"steps_per_s": 1.0 / t2, "wall_h_per_passage": t2 * n_p / 3600,
                                  "core_h_per_passage": 2 * t2 * n_p / 3600},
             "alpha": m["alpha"], "beta": m["beta"], "u": m["u"], "o": m["o"], "b": m["b"], "ghosts_2": m["g2"],
-            "rows": rows}
+            "rows": rows, "longer": longer}
 
 
 def cost_lines(r):
@@ -170,11 +182,19 @@ def cost_lines(r):
              f"{r['measured_2_ranks']['core_h_per_passage']:.2f} core-h per passage",
              f"{'P':>5} {'t/step ms':>10} {'E':>6} {'wall h/passage':>15} {'core-h/passage':>15} "
              f"{'wall h, ' + str(r['passages']) + ' passages':>22} {'core-h, all':>12}"]
-    for w in r["rows"]:
-        lines.append(f"{w['P']:>5} {w['t_step'] * 1e3:>10.3f} {w['efficiency']:>6.2f} {w['wall_h_per_passage']:>15.3f} "
-                     f"{w['core_h_per_passage']:>15.2f} {w['wall_h_run']:>22.2f} {w['core_h_run']:>12.1f}"
-                     + ("" if w["possible"] else "   slab thinner than the halo: not possible"))
+    lines += _row_lines(r["rows"])
+    for t in r["longer"]:
+        lines += [f"the same track with {t['sleepers']} sleepers ({t['length']:g} m, {t['bodies']:.0f} bodies, "
+                  f"a passage {t['period']:.4g} s = {t['steps_per_passage']:.0f} steps, P_max = {t['P_max']}), "
+                  "modelled:",
+                  *_row_lines(t["rows"])]
     return lines
+
+
+def _row_lines(rows):
+    return [f"{w['P']:>5} {w['t_step'] * 1e3:>10.3f} {w['efficiency']:>6.2f} {w['wall_h_per_passage']:>15.3f} "
+            f"{w['core_h_per_passage']:>15.2f} {w['wall_h_run']:>22.2f} {w['core_h_run']:>12.1f}"
+            + ("" if w["possible"] else "   slab thinner than the halo: not possible") for w in rows]
 
 
 def main(argv=None):
@@ -191,6 +211,8 @@ def main(argv=None):
                    "model's (a check)")
     c.add_argument("--ranks", type=int, nargs="+", default=[1, 2, 8, 16, 32, 64, 256])
     c.add_argument("--passages", type=int, help="passages of the whole run (default: the scene's)")
+    c.add_argument("--sleepers", type=int, nargs="+", default=[], metavar="K",
+                   help="also model the same track with K sleepers (the same cross-section and train)")
     c.add_argument("--json", type=Path, help="write the numbers there")
     a = ap.parse_args(argv)
     from pdem.errors import InputError
@@ -201,7 +223,9 @@ def main(argv=None):
             return 0
         if any(p < 1 for p in a.ranks):
             raise BadInput(f"--ranks {a.ranks}: rank counts must be >= 1")
-        r = cost(a.scene, a.run2, a.ranks, a.passages, run1=a.run1)
+        if any(k < 1 for k in a.sleepers):
+            raise BadInput(f"--sleepers {a.sleepers}: sleeper counts must be >= 1")
+        r = cost(a.scene, a.run2, a.ranks, a.passages, run1=a.run1, sleepers=a.sleepers)
     except (BadInput, InputError, OSError) as exc:  # one line, exit 2
         print(f"bench.track_passage_cost: error: {exc}", file=sys.stderr)
         return 2
