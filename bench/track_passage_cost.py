@@ -36,7 +36,11 @@ c_g = c/2, g its ghosts), the imbalance b and halo from its ``loads``, α, β of
 large track; per ghost and per step, so they carry over). f is its time per step outside the
 compute and communication timers ("output", "other": the rail beam's solve, the sleepers' loads
 and records, the step loop's Python): work that does not shrink with P, kept whole on every rank
-(so the projection is pessimistic where it is parallel in fact). The measured communication
+(so the projection is pessimistic where it is parallel in fact). ``--calibrate 1`` takes c and f
+from the 1-rank run instead (all its compute is c N), the halo and imbalance still from the
+2-rank run: on a machine shared with other jobs the 2-rank run waits for its partner, and a
+1-rank run with one numba thread (NUMBA_NUM_THREADS=1) is the cleaner measure of the work per
+step. The measured communication
 (waiting for the other rank included) is not in the model, which has the messages and packing
 only. A 1-rank run (``--run1``) is printed beside the model's t(1) as a check. P_max = L/h (L
 the track's length, h the halo): slabs thinner than the halo are not possible, and such rows
@@ -106,7 +110,7 @@ def run_dt(run):
     return float(read_checkpoint(found[-1][1])[1]["dt"])
 
 
-def cost(scene, run2, ranks, passages=None, run1=None, sleepers=()):
+def cost(scene, run2, ranks, passages=None, run1=None, sleepers=(), calibrate=2):
     """The measured and projected cost of a passage (module docstring) as a dict."""
     from bench.scaling_model import track_step
 
@@ -129,8 +133,14 @@ def cost(scene, run2, ranks, passages=None, run1=None, sleepers=()):
          "h": ld["halo"], "alpha": pp["alpha_s"], "beta": pp["beta_B_per_s"], "u": stored["u"], "o": stored["o"]}
     timers = r2["timers_max_s"]
     compute2 = sum(timers[k] for k in COMPUTE) / steps2
-    c_body = compute2 / (m["b"] * n / 2 + 0.5 * m["g2"])  # compute2 = b c N/2 + c_g g, c_g = c/2
-    f = (timers["output"] + timers["other"]) / steps2
+    if calibrate == 2:
+        c_body = compute2 / (m["b"] * n / 2 + 0.5 * m["g2"])  # compute2 = b c N/2 + c_g g, c_g = c/2
+        f = (timers["output"] + timers["other"]) / steps2
+    elif r1 is None:
+        raise BadInput("--calibrate 1 needs --run1 (the 1-rank run the model is calibrated on)")
+    else:  # the 1-rank run: all its compute is c N
+        c_body = sum(r1["timers_max_s"][k] for k in COMPUTE) / r1["steps"] / n
+        f = (r1["timers_max_s"]["output"] + r1["timers_max_s"]["other"]) / r1["steps"]
     t2 = r2["timers_total_max_s"] / steps2
     n_p = period / dt
     p_max = int(length / m["h"])
@@ -164,7 +174,7 @@ def cost(scene, run2, ranks, passages=None, run1=None, sleepers=()):
             "measured_2_ranks": {"steps_per_s": 1.0 / t2, "wall_h_per_passage": t2 * n_p / 3600,
                                  "core_h_per_passage": 2 * t2 * n_p / 3600},
             "alpha": m["alpha"], "beta": m["beta"], "u": m["u"], "o": m["o"], "b": m["b"], "ghosts_2": m["g2"],
-            "rows": rows, "longer": longer}
+            "calibrated_on": calibrate, "rows": rows, "longer": longer}
 
 
 def cost_lines(r):
@@ -175,7 +185,8 @@ def cost_lines(r):
              f"measured on 2 ranks ({r['steps_measured'][1]} steps, load average {r['uptime'][1]}): "
              f"{r['t2'] * 1e3:.2f} ms/step = {r['measured_2_ranks']['steps_per_s']:.0f} steps/s (compute "
              f"{r['compute2'] * 1e3:.2f}, communication {r['comm2'] * 1e3:.2f}, the rest {r['f_fixed'] * 1e3:.2f} "
-             f"ms/step; model {r['t2_model'] * 1e3:.2f} ms/step: c = {r['c_body'] * 1e9:.0f} ns per body-step)"
+             f"ms/step; model {r['t2_model'] * 1e3:.2f} ms/step: c = {r['c_body'] * 1e9:.0f} ns per body-step, "
+             f"calibrated on the {r['calibrated_on']}-rank run)"
              + ("" if r["t1"] is None else f"; 1 rank ({r['steps_measured'][0]} steps, load average {r['uptime'][0]}): "
                 f"{r['t1'] * 1e3:.2f} ms/step, model {r['t1_model'] * 1e3:.2f}"),
              f"measured, 2 ranks: {r['measured_2_ranks']['wall_h_per_passage']:.2f} h and "
@@ -210,6 +221,8 @@ def main(argv=None):
     c.add_argument("--run1", type=Path, help="a 1-rank run of the same: its time per step is printed beside the "
                    "model's (a check)")
     c.add_argument("--ranks", type=int, nargs="+", default=[1, 2, 8, 16, 32, 64, 256])
+    c.add_argument("--calibrate", type=int, choices=(1, 2), default=2,
+                   help="the run whose compute and fixed time per step calibrate the model (default 2: --run2)")
     c.add_argument("--passages", type=int, help="passages of the whole run (default: the scene's)")
     c.add_argument("--sleepers", type=int, nargs="+", default=[], metavar="K",
                    help="also model the same track with K sleepers (the same cross-section and train)")
@@ -225,7 +238,7 @@ def main(argv=None):
             raise BadInput(f"--ranks {a.ranks}: rank counts must be >= 1")
         if any(k < 1 for k in a.sleepers):
             raise BadInput(f"--sleepers {a.sleepers}: sleeper counts must be >= 1")
-        r = cost(a.scene, a.run2, a.ranks, a.passages, run1=a.run1, sleepers=a.sleepers)
+        r = cost(a.scene, a.run2, a.ranks, a.passages, run1=a.run1, sleepers=a.sleepers, calibrate=a.calibrate)
     except (BadInput, InputError, OSError) as exc:  # one line, exit 2
         print(f"bench.track_passage_cost: error: {exc}", file=sys.stderr)
         return 2

@@ -75,6 +75,13 @@ def test_cost_of_a_passage_by_hand(tmp_path, capsys):
     assert two["t_step"] > r["f_fixed"] + c * (1.05 * 2000 + 200)  # + the messages and the packing
     assert r["P_max"] == int(2.4 / 0.075) and not many["possible"] and two["possible"]
     assert "not possible" in capsys.readouterr().out
+    # calibrated on the 1-rank run: c = its compute (2 + 4 + 1 s over 400 steps) / N, f its output + other
+    assert main(["cost", str(SCENE), "--run2", str(tmp_path / "r2"), "--run1", str(tmp_path / "r1"),
+                 "--calibrate", "1", "--ranks", "1", "--json", str(out)]) == 0
+    r = json.loads(out.read_text())
+    assert r["c_body"] == pytest.approx(7.0 / 400 / 4000, rel=1e-12)
+    assert r["f_fixed"] == pytest.approx((8.0 - 7.0 - 0.1) / 400, rel=1e-12)
+    assert r["rows"][0]["t_step"] == pytest.approx(7.9 / 400, rel=1e-12)
 
 
 def test_bed_takes_the_scene_and_keeps_the_bodies(tmp_path, capsys):
@@ -94,7 +101,8 @@ def test_bad_input_one_line_exit_2(tmp_path, capsys):
     other.write_text(SCENE.read_text().replace("sleepers = 8", "sleepers = 6"))
     cases = [(["bed", str(prepared), str(other), str(tmp_path / "b.h5")], "track.sleepers = 6"),
              (["bed", str(tmp_path / "none.h5"), str(SCENE), str(tmp_path / "b.h5")], "PREPARED"),
-             (["cost", str(SCENE), "--run2", str(tmp_path / "r2"), "--ranks", "0"], "--ranks [0]")]
+             (["cost", str(SCENE), "--run2", str(tmp_path / "r2"), "--ranks", "0"], "--ranks [0]"),
+             (["cost", str(SCENE), "--run2", str(tmp_path / "r2"), "--calibrate", "1"], "--calibrate 1 needs --run1")]
     scaling(tmp_path / "r1", 2, 400, 8.0, (2.0, 4.0, 1.0))  # a 2-rank run given as the 1-rank one
     scaling(tmp_path / "r2", 2, 400, 5.0, (1.0, 2.0, 0.5))
     cases.append((["cost", str(SCENE), "--run1", str(tmp_path / "r1"), "--run2", str(tmp_path / "r2")],
