@@ -8,7 +8,9 @@ figures (``track_settlement.png``: permanent settlement along the track per pass
 passage x sleeper map; ``track_passages.png``: settlement of every sleeper against the number
 of passages with the fits, and with a beam rail the peak load on every sleeper per passage as a
 sleeper x passage map; ``track_voids.png``; ``track_forces.png``: histograms and exceedance
-curves; ``track_sleepers.png``: settlement and force of each sleeper in time) and tables
+curves; ``track_sleepers.png``: settlement and force of each sleeper in time; with turning
+sleepers ``track_tilt.png``, ``track_shares.png`` and ``track_turning_passages.png``: tilt, end
+void and load share of every sleeper against the passage number) and tables
 (``track.txt``, ``track.json``), and `passage_table`, which builds the per-passage table from
 the series (for the scene driver and for checks). Definitions:
 
@@ -28,6 +30,10 @@ the series (for the scene driver and for checks). Definitions:
 - settlement against the number of passages N: the mean permanent settlement after passage N
   fitted (least squares, `scipy.optimize.curve_fit`) by the two forms used for ballast,
   S = a + b·log10 N [m] and S = a·N^b [m, -], only with at least `MIN_FIT_PASSAGES` passages;
+  the same fits of every sleeper's own permanent settlement (``fits_per_sleeper``);
+- tilt drift of a turning sleeper: its tilt after the last passage less its tilt after the
+  first [rad] (the tilts are absolute: a sleeper placed level rocks onto the grains before the
+  traffic starts);
 - force distribution: for forces f_i > 0 of one kind at one instant, mean <f>, quantiles
   (linear interpolation), and the exceedance P(F >= f) = (n - i)/n for the i-th smallest
   (i = 0..n-1), plotted against f/<f> with the exponential exp(-f/<f>) for reference.
@@ -179,6 +185,8 @@ class TrackAnalysis:
     hanging_gap : float [m]
     fits : SettlementFits
         The mean permanent settlement against the number of passages.
+    fits_per_sleeper : list of SettlementFits
+        Each sleeper's permanent settlement against the number of passages.
     """
 
     record: TrackRecord
@@ -186,6 +194,7 @@ class TrackAnalysis:
     forces: dict
     hanging_gap: float
     fits: SettlementFits
+    fits_per_sleeper: tuple = ()
 
     @property
     def has_gap(self) -> bool:
@@ -222,7 +231,9 @@ def analyse_track(record: TrackRecord, hanging_gap: float = HANGING_GAP) -> Trac
                          for kind in ("sleeper_ballast", "ballast_ballast")
                          if getattr(rec, kind) is not None}
     return TrackAnalysis(record=record, per_passage=table, forces=forces,
-                         hanging_gap=float(hanging_gap), fits=fit_settlement(p["passage"], mean_perm))
+                         hanging_gap=float(hanging_gap), fits=fit_settlement(p["passage"], mean_perm),
+                         fits_per_sleeper=tuple(fit_settlement(p["passage"], perm[:, k])
+                                                for k in range(record.n_sleepers)))
 
 
 # --- output: tables, JSON, PNG, command line ---
@@ -296,6 +307,7 @@ def track_lines(result: TrackAnalysis) -> list[str]:
         lines.append(row)
     lines += turning_lines(result)
     lines += ["", *fit_lines(result.fits)]
+    lines += sleeper_fit_lines(result)
     lines += ["", "contact force distributions (quantiles by linear interpolation):"]
     if not result.forces:
         lines.append("  (no /forces records)")
@@ -321,15 +333,17 @@ def turning_lines(result: TrackAnalysis) -> list[str]:
     if "tilt_x" not in p:
         return []
     last, share = len(p["passage"]), "load_share" in p
-    lines = ["", f"turning sleepers after passage {last} (lo, hi: the ends of the sleeper body along its y axis; "
-                 "gaps under its end thirds" + ("; share: the largest load share of a wheel over the passages)"
-                                                if share else ")"),
-             f"{'sleeper':>8} {'tilt_x':>9} {'tilt_y':>9} {'S_lo':>9} {'S_hi':>9} {'gap_lo':>9} {'gap_hi':>9}"
-             + (f" {'share':>9}" if share else ""),
-             f"{'[-]':>8} {'[mrad]':>9} {'[mrad]':>9} {'[mm]':>9} {'[mm]':>9} {'[mm]':>9} {'[mm]':>9}"
-             + (f" {'[-]':>9}" if share else "")]
+    lines = ["", f"turning sleepers after passage {last} (dtilt: the tilt after passage {last} less after passage 1; "
+                 "lo, hi: the ends of the sleeper body along its y axis; gaps under its end thirds"
+                 + ("; share: the largest load share of a wheel over the passages)" if share else ")"),
+             f"{'sleeper':>8} {'tilt_x':>9} {'tilt_y':>9} {'dtilt_x':>9} {'dtilt_y':>9} {'S_lo':>9} {'S_hi':>9} "
+             f"{'gap_lo':>9} {'gap_hi':>9}" + (f" {'share':>9}" if share else ""),
+             f"{'[-]':>8} {'[mrad]':>9} {'[mrad]':>9} {'[mrad]':>9} {'[mrad]':>9} {'[mm]':>9} {'[mm]':>9} "
+             f"{'[mm]':>9} {'[mm]':>9}" + (f" {'[-]':>9}" if share else "")]
+    drift_x, drift_y = tilt_drift(p)
     for k in range(rec.n_sleepers):
         lines.append(f"{k:>8d} {p['tilt_x'][-1, k] * MRAD:>9.4f} {p['tilt_y'][-1, k] * MRAD:>9.4f} "
+                     f"{drift_x[k] * MRAD:>9.4f} {drift_y[k] * MRAD:>9.4f} "
                      f"{p['settlement_lo'][-1, k] * MM:>9.4f} {p['settlement_hi'][-1, k] * MM:>9.4f} "
                      f"{p['gap_lo'][-1, k] * MM:>9.4f} {p['gap_hi'][-1, k] * MM:>9.4f}"
                      + (f" {p['load_share'][:, k].max():>9.4f}" if share else ""))
@@ -351,6 +365,26 @@ def fit_lines(fits: SettlementFits) -> list[str]:
         else:
             lines.append(f"  S = {name}: a = {f['a'] * MM:.4g} mm, b = {f['b'] * MM:.4g} mm; rms residual "
                          f"{f['rms'] * MM:.3g} mm")
+    return lines
+
+
+def tilt_drift(passages):
+    """(tilt_x, tilt_y) after the last passage less after the first, per sleeper [rad]."""
+    return passages["tilt_x"][-1] - passages["tilt_x"][0], passages["tilt_y"][-1] - passages["tilt_y"][0]
+
+
+def sleeper_fit_lines(result: TrackAnalysis) -> list[str]:
+    """The fits of every sleeper's permanent settlement against N, a row per sleeper (none when
+    the mean was not fitted: the same reason holds)."""
+    if not result.fits.forms:
+        return []
+    lines = ["", "permanent settlement of each sleeper against N (least squares; a, b as above, rms residual):",
+             f"{'sleeper':>8} {'a (log)':>10} {'b (log)':>10} {'rms':>8} {'a (pow)':>10} {'b (pow)':>9} {'rms':>8}",
+             f"{'[-]':>8} {'[mm]':>10} {'[mm]':>10} {'[mm]':>8} {'[mm]':>10} {'[-]':>9} {'[mm]':>8}"]
+    for k, fits in enumerate(result.fits_per_sleeper):
+        lg, pw = fits.forms["a + b log10 N"], fits.forms["a N^b"]
+        lines.append(f"{k:>8d} {lg['a'] * MM:>10.4f} {lg['b'] * MM:>10.4f} {lg['rms'] * MM:>8.4f} "
+                     f"{pw['a'] * MM:>10.4f} {pw['b']:>9.4f} {pw['rms'] * MM:>8.4f}")
     return lines
 
 
@@ -376,6 +410,11 @@ def track_dict(result: TrackAnalysis) -> dict:
         "fits": {"of": "mean permanent settlement [m] against the passage number N",
                  "forms": {k: {n: _json(v) if n != "failed" else v for n, v in f.items()}
                            for k, f in result.fits.forms.items()}, "reason": result.fits.reason},
+        "fits_per_sleeper": [{k: {n: _json(v) if n != "failed" else v for n, v in f.items()}
+                              for k, f in fits.forms.items()} for fits in result.fits_per_sleeper],
+        **({"tilt_drift": {"of": "tilt after the last passage less after the first [rad]",
+                           "tilt_x": _floats(tilt_drift(rec.passages)[0]),
+                           "tilt_y": _floats(tilt_drift(rec.passages)[1])}} if "tilt_x" in rec.passages else {}),
         "forces": {label: {kind: {k: _json(v) for k, v in vars(s).items()}
                            for kind, s in kinds.items()}
                    for label, kinds in result.forces.items()},
@@ -465,6 +504,42 @@ def plot_shares(result: TrackAnalysis, path) -> Path:
     _along_and_map(fig, ax, ax_map, rec, rec.passages["load_share"], "load share of a wheel [-]",
                    "Load share per sleeper (the rail as a beam)", "load share [-]", "Load share: passage × sleeper",
                    cmap="magma")
+    return save(fig, path)
+
+
+TURNING_AGAINST_N = (  # /passages table (or a pair: the larger), scale, label: track_turning_passages.png
+    ("tilt_x", MRAD, "tilt about x (across the track) [mrad]"),
+    ("tilt_y", MRAD, "tilt about y (along the track) [mrad]"),
+    (("gap_lo", "gap_hi"), MM, "void under the end thirds, the larger [mm]"),
+    ("load_share", 1.0, "load share of a wheel [-]"),
+)
+
+
+def plot_turning_passages(result: TrackAnalysis, path) -> Path:
+    """Turning sleepers: tilt about x and y, the larger void under an end third and (with the
+    beam) the load share of every sleeper against the passage number, a line per sleeper."""
+    from matplotlib.figure import Figure
+    from matplotlib.ticker import MaxNLocator
+
+    from .figures import save
+
+    rec = result.record
+    p = rec.passages
+    panels = [q for q in TURNING_AGAINST_N if isinstance(q[0], tuple) or q[0] in p]
+    fig = Figure(figsize=(12.0, 4.0 * math.ceil(len(panels) / 2)), layout="constrained")
+    axes = np.atleast_1d(fig.subplots(math.ceil(len(panels) / 2), 2)).ravel()
+    for (name, scale, label), ax in zip(panels, axes):
+        values = np.maximum(p[name[0]], p[name[1]]) if isinstance(name, tuple) else p[name]
+        for k, colour in enumerate(_colours(rec.n_sleepers)):
+            ax.plot(p["passage"], values[:, k] * scale, "o-", ms=3, lw=0.8, color=colour,
+                    label=f"sleeper {k}" if rec.n_sleepers <= 12 else None)
+        ax.xaxis.set_major_locator(MaxNLocator(integer=True))
+        ax.set(xlabel="passage N [-]", ylabel=label, title=label.split(" [")[0] + " per sleeper and passage")
+        ax.grid(True, alpha=0.3)
+        if rec.n_sleepers <= 12:
+            ax.legend(fontsize="x-small", ncol=2)
+    for ax in axes[len(panels):]:
+        ax.set_visible(False)
     return save(fig, path)
 
 
@@ -633,6 +708,7 @@ def run_track(run_or_file, out=None, hanging_gap=HANGING_GAP) -> list[Path]:
         written.append(plot_forces(result, out / "track_forces.png"))
     if "tilt_x" in result.record.passages:
         written.append(plot_tilt(result, out / "track_tilt.png"))
+        written.append(plot_turning_passages(result, out / "track_turning_passages.png"))
     if "load_share" in result.record.passages:
         written.append(plot_shares(result, out / "track_shares.png"))
     (out / "track.txt").write_text("\n".join(track_lines(result)) + "\n")
@@ -646,8 +722,9 @@ def add_parser(sub) -> None:
     p = sub.add_parser(
         "track", help="track section: settlement per sleeper and passage, voids, forces",
         description="Write track_settlement.png, track_passages.png, track_sleepers.png, track_voids.png (with "
-                    "gap data), track_forces.png (with /forces records), track_tilt.png and track_shares.png (turning "
-                    "sleepers, the beam's load shares), track.txt and track.json for a track run.")
+                    "gap data), track_forces.png (with /forces records), track_tilt.png, track_turning_passages.png "
+                    "and track_shares.png (turning sleepers, the beam's load shares), track.txt and track.json for a "
+                    "track run.")
     p.add_argument("results", type=Path, metavar="RUN",
                    help="run directory (with results.h5) or results file")
     p.add_argument("--out", type=Path, metavar="DIR",
