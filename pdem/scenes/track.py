@@ -80,7 +80,7 @@ from ..build.config import check_keys, run_settings, scene_from_dict
 from ..driver import observables
 from ..driver.fragments import FragmentRecorder
 from ..driver.results import write_root_attrs
-from ..driver.stages import Stage, empty_tables
+from ..driver.stages import Stage, empty_tables, nothing
 from ..errors import InputError
 from ..io.checkpoint import CheckpointError, read_checkpoint
 from ..boundaries.loads import ETA_ZERO, AxleTrain, Haversine, SleeperLoad
@@ -115,7 +115,8 @@ DEFAULTS = {
 }
 OPTIONAL = {"sleeper_mass", "sleeper_blocked", "sleeper_rotation", "sleeper_inertia",
             "periodic",  # periodic: no ends along x (`periodic_settings`)
-            "clumps"}    # the ballast as clumps, rigid or breakable (`clump_settings`)
+            "clumps",    # the ballast as clumps, rigid or breakable (`clump_settings`)
+            "bond_boost"}  # breakable grains: bond strengths x this while the bed is prepared
 SPHERE_KEYS = ("radius", "radius_spread")  # size sphere ballast only
 TRAFFIC_DEFAULTS = {
     "program": "axles", "prepared": "", "forces_every": 0,
@@ -163,6 +164,7 @@ def track_settings(doc):
             raise InputError(f"track.{k} = {c[k]!r}: no [materials.{c[k]}] table in the scene file")
     check_preparation("track", c)
     c["grain"] = clump_settings(doc, given)
+    c["bond_boost"] = bond_boost_settings(c, given)
     c["sleepers"] = number("track.sleepers", c["sleepers"], 1, integer=True)
     for k in ("spacing", "gauge", "rail_head_width", "rail_foot_width", "bed_depth", "slope"):
         c[k] = number(f"track.{k}", c[k], 0.0, lo_open=True)
@@ -234,6 +236,21 @@ def clump_settings(doc, given):
             raise InputError(f"track.{k} = {given[k]!r}: sizes sphere ballast, but [track.clumps] gives the ballast as "
                              "clumps (their members size it); remove one of them")
     return grain_spec(doc, given["clumps"], "track.clumps")
+
+
+def bond_boost_settings(c, given):
+    """``bond_boost`` [-] (default 1): the breakable grains' bond strengths a_N, a_T times this from
+    the start of the pour to the end of the preparation (the refill), returned when the traffic
+    starts: the pour drops the grains from up to the cloud's top, and those impacts, which a
+    placed ballast never sees, would break them (thesis 4.5 raised the bonds tenfold while its
+    oedometer's grains settled). Only with breakable grains; > 0."""
+    if "bond_boost" not in given:
+        return 1.0
+    g = c.get("grain")
+    if g is None or not g["breakable"]:
+        raise InputError(f"track.bond_boost = {given['bond_boost']!r}: scales bonds, which only breakable grains have "
+                         "([track.clumps] breakable = true); remove it")
+    return number("track.bond_boost", given["bond_boost"], 0.0, lo_open=True, allow="a factor > 0 [-]")
 
 
 def ballast_reach(c):
@@ -598,15 +615,30 @@ class TrackRun(PreparedRun):
         """`PREPARATION` (compacted before the cut; the prepared bed saved after it), then
         ``traffic`` if a [traffic] table is given."""
         bed = self.bed_scene
-        stages = [pour_stage(self, bed, self.pour, at_rest=self.bodies_settled),
+        pour = pour_stage(self, bed, self.pour, at_rest=self.bodies_settled)
+        boost = self.c["bond_boost"] != 1.0
+        stages = [pour.then(prepare=self.boost_bonds) if boost else pour,
                   vibrate_stage(self, bed),
                   settle_stage(self, bed, at_rest=self.bodies_settled),
                   replace(refill_stage(self, self.stage_scene, self.refill, at_rest=self.bodies_settled),
                           saved=self.save_prepared_bed)]
         if self.t is not None:
             stages.append(Stage("traffic", self.traffic_scene, self.load_program, open=self.open_traffic,
+                                prepare=self.release_bonds if boost else nothing,
                                 close=lambda sim: self.stage_done(sim, "traffic"), record=self.stage_record))
         return stages
+
+    def boost_bonds(self, sim, scene, mid_stage):
+        """At the start of the pour: the bond strengths times ``bond_boost`` (`bond_boost_settings`)."""
+        if not mid_stage:
+            sim.scale_bond_strength(self.c["bond_boost"])
+            self.loop.log(f"bond strengths x {self.c['bond_boost']:g} until the traffic starts (track.bond_boost)")
+
+    def release_bonds(self, sim, scene, mid_stage):
+        """At the start of the traffic: the bonds back to their strength (c r^2 of the material)."""
+        if not mid_stage:
+            sim.scale_bond_strength(1.0 / self.c["bond_boost"])
+            self.loop.log(f"bond strengths returned (/ {self.c['bond_boost']:g}) at t = {sim.time:.4g} s")
 
     def initial_state(self):
         return {"traffic_start": None, "tracker": None, "prepared_from": None, "forces": [], "bonds": []}
@@ -889,8 +921,7 @@ class TrackRun(PreparedRun):
         return {"scene": "track", "ranks": self.comm.size, "bodies": self.n_bodies, "steps": steps,
                 "rebuilds": sim.n_rebuilds - self.rebuilds0, "wall_s": wall_s, "spacing": self.c["spacing"],
                 "track_length": g["length"], "sleepers": self.c["sleepers"],
-                "bodies_per_metre": self.n_bodies / g["length"], "radius": self.c["radius"],
-                "radius_spread": self.c["radius_spread"], "timers_max_s": self.timers_max,
+                "bodies_per_metre": self.n_bodies / g["length"], **sphere_size(self.c), "timers_max_s": self.timers_max,
                 "timers_total_max_s": self.timers_total_max, "loads": self.loads_report,
                 "uptime": _load_average()}
 
@@ -920,6 +951,14 @@ class TrackRun(PreparedRun):
                        notes=balance_lines(self.write_scaling(sim, wall_s))
                        + (["", f"traffic: {self.traffic_text()}"] if traffic else []),
                        traffic=traffic)
+
+
+def sphere_size(c):
+    """{"radius", "radius_spread"} of the spheres the slabs hold [m, -]: the ballast's, or a grain's
+    members (their largest radius, spread 0)."""
+    if c.get("grain") is None:
+        return {"radius": c["radius"], "radius_spread": c["radius_spread"]}
+    return {"radius": float(np.max(c["grain"]["member_radii"])), "radius_spread": 0.0}
 
 
 def _load_average():
