@@ -11,7 +11,8 @@ End to end (slow): a small half track (2 sleepers, grains of 8 spheres of r = 15
 a beam, the subgrade 10 times as stiff as the ballast: on the usual soft one the few grains
 under a sleeper of this thin bed are pressed into it beyond the overlap guard) prepared once
 with rigid clumps and once with breakable grains (bonds 10 times stronger while preparing), then
-one passage of a bogie from that bed on 1 and 2 ranks: the same bits. Physics of the breakable run against
+one passage of a bogie from that bed on 1 and 2 ranks: the same bits, and a 2-rank run of the
+breakable grains resumed from a checkpoint inside the passage rewrites them. Physics of the breakable run against
 independent truth: the fragments' masses add up, at every record, to the grains' mass from the
 density and the member radius (nothing is lost or made by breakage); the prepared bed holds 12
 bonds per grain (a 2 x 2 x 2 cube of touching spheres has 12 touching pairs) and every grain
@@ -22,6 +23,7 @@ grading per passage.
 """
 import copy
 import math
+import shutil
 import tomllib
 
 import numpy as np
@@ -30,7 +32,7 @@ import pytest
 from pdem.build.config import scene_from_dict
 from pdem.driver.stages import append_tables, clump_tables, empty_tables
 from pdem.errors import InputError
-from pdem.format.groups import read_fragments
+from pdem.format.groups import read_fragments, read_track
 from pdem.io.checkpoint import list_checkpoints, read_checkpoint
 from pdem.scenes.common.preparation import remove_where
 from pdem.scenes.track import track_settings, traffic_settings
@@ -252,3 +254,26 @@ def test_breakage_conserves_mass_and_breaks_bonds_only_beyond_their_strength(run
     assert (out / "grading.png").stat().st_size > 0 and (out / "breakage.png").stat().st_size > 0
     text = (out / "grading.txt").read_text()
     assert "passage_1" in text and "intact bonds per record" in text
+
+
+@needs_mpiexec
+@pytest.mark.slow
+def test_breakable_run_resumed_in_the_passage_rewrites_the_same_records(runs):
+    """A copy of the 2-rank run cut back to a checkpoint inside the passage and run again on 2
+    ranks writes the records of the 1-rank run bit for bit (the fragments and bonds too)."""
+    breakable, base, scene_path, _, _ = runs
+    if not breakable:
+        pytest.skip("the breakable run only")
+    out = base / "resume"
+    shutil.copytree(base / "r2", out)
+    passages = read_track(out / "results.h5").passages
+    t0, t1 = float(passages["t_start"][0]), float(passages["t_end"][0])
+    inside = [s for s, p in list_checkpoints(out / "checkpoints") if t0 < read_checkpoint(p)[1]["time"] < t1]
+    assert inside, "no checkpoint inside the passage"
+    mid = inside[len(inside) // 2]
+    for s, path in list_checkpoints(out / "checkpoints"):
+        if s > mid:
+            path.unlink()
+    r = run_pdem(2, scene_path, out)
+    assert f"at step {mid} (stage traffic" in r.stdout and "(resumed)" in r.stdout
+    assert_same_results(base / "r1" / "results.h5", out / "results.h5", "after the restart")
