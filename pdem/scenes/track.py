@@ -26,6 +26,10 @@ and units in `DEFAULTS`, `TRAFFIC_DEFAULTS`; SI) describes:
   top), as in the thesis (its mould was 4 planes and 4 facets). ``half = true`` models the half
   on y >= 0 by symmetry (a wall at y = 0, sleeper y-translation blocked): the thesis's slice
   is ``half = true, sleepers = 1`` (600 mm of track, half-sleeper 1300 x 300 x 220 mm).
+- the ballast: spheres (``radius``, ``radius_spread``), or with a ``[track.clumps]`` table clumps
+  of one grain (`clump_settings`: the oedometer's keys, `pdem.scenes.common.grains`): rigid, or
+  breakable (bonded members, law "cohesive"; ``bond_boost`` [-] holds the bonds that much
+  stronger from the pour to the end of the refill). The cuts remove whole clumps.
 - The rail: by default not a body (a rigid sleeper that cannot rotate carries the rail-seat
   load wherever it acts, so the rail adds only its mass); with ``[traffic] rail_model = "beam"``
   an elastic beam on pads over the sleepers (`pdem.boundaries.rail_beam.SleeperRails`, keys
@@ -61,7 +65,8 @@ Results (`pdem.format.schema`, kind "track"): ``results.h5`` with /series (`TRAC
 settlement, gap under each sleeper; with the beam the peak load on each sleeper; turning sleepers:
 settlement of each end, tilts, the void under each end third, with the beam the load share),
 /forces/peak_passage_<p> and end_passage_<p> (contact force distributions, passages 1, every
-``forces_every``-th and the last); ``preparation.h5`` and
+``forces_every``-th and the last); with breakable grains /fragments/prepared (when the traffic
+starts) and /fragments/passage_<p> (the fragments and the intact bonds, `grading_record`); ``preparation.h5`` and
 ``.png``; ``analysis/`` (`python -m analysis track`); ``summary.txt`` (stages, passages, wall
 time, throughput, load balance over the ranks, timing table) and ``scaling.json`` (the same,
 for `bench.scaling_model`); ParaView snapshots (the spheres, walls and sleepers,
