@@ -4,7 +4,9 @@ thesis 4.5 and figure 4.25).
 This module owns the grading analysis of the ``/fragments`` records (layout in
 `pdem.format.schema`): grading curves, the thesis's figures (mass in fragments of at least 135
 spheres, mass in single spheres), the breakage indices between a reference record and each later
-one, and their table, JSON and PNG (``grading.txt``, ``grading.json``, ``grading.png``). The
+one, and their table, JSON and PNGs (``grading.txt``, ``grading.json``, ``grading.png``,
+``breakage.png``: the indices per record, e.g. per passage of a track, with the bonds broken
+where the records hold the intact bonds). The
 indices are defined in ``docs/breakage_indices.md``; in short, with f_i the mass fraction of
 fragment i, d its size and P(x) the mass fraction passing x:
 
@@ -389,6 +391,7 @@ def grading_lines(result: GradingAnalysis) -> list[str]:
     else:
         lines.append("  (no record after the reference)")
     lines += [f"  note: {note}" for note in result.notes]
+    lines += bond_lines(records)
 
     labels = [r.label for r in records]
     width = max(10, *(len(label) for label in labels))
@@ -404,6 +407,22 @@ def grading_lines(result: GradingAnalysis) -> list[str]:
     for i, a in enumerate(result.sieves):
         lines.append(f"{a * MM:>8.3f} " + " ".join(f"{p[i] * PERCENT:>{width}.2f}"
                                                    for p in table))
+    return lines
+
+
+def bond_lines(records) -> list[str]:
+    """The intact bonds of the records that hold them (the track's), and how many broke since
+    the record before."""
+    held = [r for r in records if r.n_bonds is not None]
+    if not held:
+        return []
+    lines = ["", "intact bonds per record (and broken since the record before):",
+             f"{'record':>16} {'bonds':>10} {'broken':>10}"]
+    before = None
+    for r in held:
+        broken = "" if before is None else f"{before - r.n_bonds:>10d}"
+        lines.append(f"{r.label:>16} {r.n_bonds:>10d} {broken}")
+        before = r.n_bonds
     return lines
 
 
@@ -430,6 +449,8 @@ def grading_dict(result: GradingAnalysis) -> dict:
         "breakage": [{k: _json(v) for k, v in asdict(b).items()} for b in result.breakage],
         "curves": curves,
         "notes": list(result.notes),
+        **({"bonds": {r.label: r.n_bonds for r in fr.records if r.n_bonds is not None}}
+           if any(r.n_bonds is not None for r in fr.records) else {}),
     }
 
 
@@ -473,9 +494,50 @@ def plot_grading(result: GradingAnalysis, path) -> Path:
     return save(fig, path)
 
 
+def plot_breakage(result: GradingAnalysis, path) -> Path:
+    """Breakage per record (e.g. per passage of a track): Hardin's B_r (= BBI here) and Marsal's
+    B_g against the reference, the mass in intact grains and in single spheres, and, where the
+    records hold them, the bonds broken since the first record."""
+    from matplotlib.figure import Figure
+
+    from .figures import save
+
+    fig = Figure(figsize=(11.0, 4.4), layout="constrained")
+    ax_i, ax_m = fig.subplots(1, 2)
+    records = result.fragments.records
+    x = np.arange(len(records))
+    labels = [r.label for r in records]
+    index = {b.label: b for b in result.breakage}
+    nan = float("nan")
+    br = [0.0 if r.label == result.reference else index[r.label].hardin_br if r.label in index else nan
+          for r in records]
+    bg = [0.0 if r.label == result.reference else index[r.label].marsal_sieves if r.label in index else nan
+          for r in records]
+    ax_i.plot(x, np.asarray(br) * PERCENT, "o-", label="Hardin B_r = BBI [%]")
+    ax_i.plot(x, bg, "s--", label="Marsal B_g (sieves) [%]")
+    ax_i.set(ylabel="breakage index [%]", title=f"Breakage against {result.reference!r}")
+    s = result.summaries
+    ax_m.plot(x, [v.fraction_intact * PERCENT for v in s], "o-", label="mass in intact grains")
+    ax_m.plot(x, [v.fraction_single * PERCENT for v in s], "s--", label="mass in single spheres")
+    ax_m.set(ylabel="mass [%]", title="Intact grains and single spheres")
+    bonds = [r.n_bonds for r in records]
+    if all(b is not None for b in bonds):
+        ax_b = ax_m.twinx()
+        ax_b.plot(x, [bonds[0] - b for b in bonds], "^:", color="C3", label="bonds broken since the first")
+        ax_b.set_ylabel("bonds broken [-]", color="C3")
+        ax_b.legend(fontsize="small", loc="center right")
+    for ax in (ax_i, ax_m):
+        ax.set_xticks(x, labels, rotation=45 if len(x) > 6 else 0, ha="right" if len(x) > 6 else "center",
+                      fontsize="small")
+        ax.grid(True, alpha=0.3)
+        ax.legend(fontsize="small", loc="upper left")
+    return save(fig, path)
+
+
 def run_grading(run_or_file, out=None, reference=None, intact_members=INTACT_MEMBERS,
                 sieves=None) -> list[Path]:
-    """Analyse the fragment records of a run; write grading.png, grading.txt, grading.json."""
+    """Analyse the fragment records of a run; write grading.png, grading.txt, grading.json and,
+    with two records or more, breakage.png (the indices per record)."""
     path = results_file(run_or_file)
     result = analyse_grading(read_fragments(path), reference=reference,
                              intact_members=intact_members, sieves=sieves)
@@ -484,7 +546,10 @@ def run_grading(run_or_file, out=None, reference=None, intact_members=INTACT_MEM
     text, js = out / "grading.txt", out / "grading.json"
     text.write_text("\n".join(grading_lines(result)) + "\n")
     js.write_text(json.dumps(grading_dict(result), indent=1, allow_nan=False) + "\n")
-    return [plot_grading(result, out / "grading.png"), text, js]
+    written = [plot_grading(result, out / "grading.png"), text, js]
+    if len(result.fragments.records) >= 2:
+        written.append(plot_breakage(result, out / "breakage.png"))
+    return written
 
 
 def add_parser(sub) -> None:
@@ -494,7 +559,8 @@ def add_parser(sub) -> None:
         description="Write grading.png, grading.txt and grading.json from the /fragments "
                     "records of a run: grading curves, mass in single spheres and in "
                     "fragments of >= N spheres, Marsal B_g, Hardin B_r and BBI against the "
-                    "first (or --reference) record.")
+                    "first (or --reference) record; with two records or more breakage.png "
+                    "(the indices per record, e.g. per passage of a track).")
     p.add_argument("results", type=Path, metavar="RUN_OR_FILE",
                    help="run directory (with results.h5) or results file")
     p.add_argument("--out", type=Path, metavar="DIR",

@@ -8,7 +8,7 @@ This module owns the analysis of a kind "oedometer" result (layout in `pdem.form
 (force–displacement with the unloading branch enlarged, as the thesis's figures, and the
 largest overlap over the smaller radius, ``max_overlap_ratio`` [-], where recorded),
 ``oedometer.txt``, ``oedometer.json`` and, with ``/fragments``, the grading of
-`analysis.grading` (``grading.png``, ``grading.txt``, ``grading.json``).
+`analysis.grading` (``grading.png``, ``breakage.png``, ``grading.txt``, ``grading.json``).
 
 - loading stiffness: least-squares slope of force on displacement over a force window of the
   loading branch (`analysis.stiffness.loading_stiffness`, 10–90 % by default) [N/m];

@@ -27,15 +27,16 @@ from pathlib import Path
 
 import numpy as np
 
-from pdem.format.groups import read_blast, read_track
+from pdem.format.groups import read_blast, read_fragments, read_track
 from pdem.format.read import ResultFileError, read_results
 from pdem.format.run import RUN_INFO, read_run_info
 
 from .blast import analyse_blast, blast_dict, write_blast
 from .figures import figure, plot_preparation, plot_run_series, save
+from .grading import bond_lines
 from .oedometer import run_oedometer
 from .summary import run_box
-from .track import KN, fit_lines, fit_settlement, run_track
+from .track import KN, fit_lines, fit_settlement, grain_members, run_track
 
 MM = 1e3
 # stage table: the columns every staged run has (key, label, format); the scene adds its own
@@ -159,7 +160,10 @@ def track(run, info):
         lines += [f"{int(p['passage'][i]):7d}  " + " ".join(f"{KN * f:7.3f}" for f in p["load_peak"][i])
                   for i in range(len(p["passage"]))]
     fits = fit_settlement(p["passage"], p["settlement_permanent"].mean(axis=1))
-    return lines + fit_lines(fits), run_track(run, run / "analysis")
+    written = run_track(run, run / "analysis")
+    if grain_members(run / "results.h5") is not None:  # breakable grains: the bonds per passage
+        lines += bond_lines(read_fragments(run / "results.h5").records)
+    return lines + fit_lines(fits), written
 
 
 def shear_box(run, info):

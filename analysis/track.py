@@ -11,7 +11,9 @@ sleeper x passage map; ``track_voids.png``; ``track_forces.png``: histograms and
 curves; ``track_sleepers.png``: settlement and force of each sleeper in time; with turning
 sleepers ``track_tilt.png``, ``track_shares.png`` and ``track_turning_passages.png``: tilt, end
 void and load share of every sleeper against the passage number) and tables
-(``track.txt``, ``track.json``), and `passage_table`, which builds the per-passage table from
+(``track.txt``, ``track.json``), with breakable grains (``/fragments``: "prepared" and one record
+per passage) the grading per passage of `analysis.grading` (``grading.png``, ``breakage.png``,
+``grading.txt``, ``grading.json``), and `passage_table`, which builds the per-passage table from
 the series (for the scene driver and for checks). Definitions:
 
 - permanent settlement after passage p: settlement of each sleeper at the end of the passage
@@ -51,10 +53,11 @@ from pathlib import Path
 
 import numpy as np
 
-from pdem.format.groups import ForceRecord, TrackRecord, read_track
+from pdem.format.groups import ForceRecord, TrackRecord, read_fragments, read_track
 from pdem.format.read import results_file
 
 from .figures import default_out
+from .grading import run_grading
 from .settlement import MIN_FIT_POINTS
 
 HANGING_GAP = 1e-4   # [m] a gap above this (0.1 mm) counts as a hanging sleeper
@@ -693,8 +696,25 @@ def plot_sleepers(result: TrackAnalysis, path) -> Path:
     return save(fig, path)
 
 
+def grain_members(path) -> int | None:
+    """Spheres of an intact grain of a track run with breakable grains: the largest fragment of
+    its first fragment record (the prepared bed, where no grain has broken yet); None without
+    fragment records."""
+    import h5py
+
+    from pdem.format.schema import FRAGMENTS
+
+    with h5py.File(path, "r") as f:
+        if FRAGMENTS not in f:
+            return None
+    return int(read_fragments(path).records[0].n_members.max())
+
+
 def run_track(run_or_file, out=None, hanging_gap=HANGING_GAP) -> list[Path]:
-    """Analyse a track run: track_*.png, track.txt, track.json."""
+    """Analyse a track run: track_*.png, track.txt, track.json; with breakable grains the
+    grading per passage too (`analysis.grading.run_grading`: grading.png with a curve per
+    passage, breakage.png with the indices and the bonds broken per passage, grading.txt,
+    grading.json; intact grains counted by the grain's size)."""
     path = results_file(run_or_file)
     result = analyse_track(read_track(path), hanging_gap=hanging_gap)
     out = Path(out) if out is not None else default_out(path)
@@ -714,6 +734,9 @@ def run_track(run_or_file, out=None, hanging_gap=HANGING_GAP) -> list[Path]:
     (out / "track.txt").write_text("\n".join(track_lines(result)) + "\n")
     (out / "track.json").write_text(json.dumps(track_dict(result), indent=1,
                                                allow_nan=False) + "\n")
+    members = grain_members(path)
+    if members is not None:
+        written += run_grading(path, out, intact_members=members)
     return written + [out / "track.txt", out / "track.json"]
 
 
@@ -724,7 +747,8 @@ def add_parser(sub) -> None:
         description="Write track_settlement.png, track_passages.png, track_sleepers.png, track_voids.png (with "
                     "gap data), track_forces.png (with /forces records), track_tilt.png, track_turning_passages.png "
                     "and track_shares.png (turning sleepers, the beam's load shares), track.txt and track.json for a "
-                    "track run.")
+                    "track run; with breakable grains the grading per passage (grading.png, breakage.png, "
+                    "grading.txt, grading.json).")
     p.add_argument("results", type=Path, metavar="RUN",
                    help="run directory (with results.h5) or results file")
     p.add_argument("--out", type=Path, metavar="DIR",

@@ -9,6 +9,7 @@ rank 0 writes. A resumed run writes a record of the same label again (replaced).
 The group attributes: ``density`` [kg/m³] (of the grains' material: the sieve diameter of a
 fragment is (6 m/(π ρ))^(1/3)) and ``member_radius_min`` [m]; both default to what the scene
 has: the density of the clump members' material (it must be one) and their smallest radius.
+With ``bonds`` a record also holds the intact bonds (attribute ``n_bonds``; the track's records).
 """
 import numpy as np
 
@@ -21,10 +22,11 @@ from ..bodies.fragments import fragments
 class FragmentRecorder:
     """Writes fragment records of a simulation into the results file ``path``."""
 
-    def __init__(self, path, comm, every=0, density=None, member_radius_min=None):
+    def __init__(self, path, comm, every=0, density=None, member_radius_min=None, bonds=False):
         self.path = path
         self.comm = comm
         self.every = int(every)
+        self.bonds = bonds  # write the intact bonds as the record's attribute n_bonds
         self.density = density
         self.member_radius_min = member_radius_min
         self.last = None  # what the last record found (rank 0)
@@ -51,6 +53,7 @@ class FragmentRecorder:
         if self.comm.rank == 0:
             rmin = self.member_radius_min if self.member_radius_min is not None else f["member_radius_min"]
             write_fragments(self.path, label, f["n_members"], f["mass"], step=sim.step, time=sim.time,
-                            density=density, member_radius_min=rmin, clump=f["clump"], replace=True)
+                            density=density, member_radius_min=rmin, clump=f["clump"], replace=True,
+                            n_bonds=f["n_bonds"] if self.bonds else None)
             self.last = f
         return f

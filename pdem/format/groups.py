@@ -37,6 +37,8 @@ class FragmentRecord:
     mass : ndarray [kg]
     clump : ndarray of int64 or None
         Clump id of each fragment (-1: never in a clump), if the file has it.
+    n_bonds : int or None
+        Intact bonds in the sample, if the file has them (attribute ``n_bonds``).
     """
 
     label: str
@@ -45,6 +47,7 @@ class FragmentRecord:
     n_members: np.ndarray
     mass: np.ndarray
     clump: np.ndarray | None
+    n_bonds: int | None = None
 
 
 @dataclass(frozen=True)
@@ -150,9 +153,13 @@ def read_fragments(path) -> Fragments:
             clump = data.get("clump")
             if clump is not None and not np.issubdtype(clump.dtype, np.integer):
                 raise ResultFileError(path, f"{where}/clump must be integers")
+            bonds = _plain(g.attrs["n_bonds"]) if "n_bonds" in g.attrs else None
+            if bonds is not None and (not isinstance(bonds, int) or bonds < 0):
+                raise ResultFileError(path, f"{where}: attribute n_bonds = {bonds!r} must be an integer >= 0")
             records.append(FragmentRecord(label=label, step=step, time=time,
                                           n_members=n.astype(np.int64), mass=mass,
-                                          clump=None if clump is None else clump.astype(np.int64)))
+                                          clump=None if clump is None else clump.astype(np.int64),
+                                          n_bonds=bonds))
     if not records:
         raise ResultFileError(path, f"group /{FRAGMENTS} holds no records")
     records.sort(key=lambda r: (r.step, r.time, r.label))

@@ -36,7 +36,8 @@ Attributes ``step`` are integers, ``time`` and the other scalars float64, labels
 ``/fragments/<label>`` (one group per record: at the named stages "initial", "vibrated",
     "peak", "unloaded" or any label, and on schedule as ``fragment_label(step)`` =
     "step_000000120000"; records are ordered by ``step``, then ``time``, then label)
-    attrs ``label`` (text, = the group name), ``step`` [-], ``time`` [s].
+    attrs ``label`` (text, = the group name), ``step`` [-], ``time`` [s], optional ``n_bonds``
+    [-] (the intact bonds then; the track writes it: "prepared" and "passage_<p>").
     A fragment is a connected component of clump members over intact bonds: an unbroken clump
     is one fragment, a loose sphere (never in a clump, or broken off) a fragment of 1.
     ``n_members`` int64 [n_fragments] [-], >= 1: member spheres of each fragment;
@@ -297,7 +298,7 @@ def fragment_label(step: int) -> str:
 
 def write_fragments(target, label: str, n_members, mass, *, step: int, time: float,
                     density: float, member_radius_min: float, clump=None,
-                    replace: bool = False) -> str:
+                    replace: bool = False, n_bonds: int | None = None) -> str:
     """Add one fragment record ``/fragments/<label>`` to a results file.
 
     Parameters
@@ -321,6 +322,8 @@ def write_fragments(target, label: str, n_members, mass, *, step: int, time: flo
         Id of each fragment's clump, -1 for spheres never in a clump.
     replace : bool
         Replace a record of the same label (a resumed run writing it again).
+    n_bonds : int, optional
+        Intact bonds in the sample [-] (attribute ``n_bonds``; the track writes it).
 
     Returns
     -------
@@ -351,8 +354,13 @@ def write_fragments(target, label: str, n_members, mass, *, step: int, time: flo
         top.attrs.update(scalars)
         top.attrs["units"] = json.dumps(FRAGMENTS_ATTR_UNITS)
         g = _new_group(top, label, replace)
-        g.attrs.update(label=label, step=np.int64(step), time=float(time),
-                       units=json.dumps(RECORD_ATTR_UNITS))
+        units = dict(RECORD_ATTR_UNITS)
+        if n_bonds is not None:
+            if int(n_bonds) < 0:
+                raise ValueError(f"n_bonds = {n_bonds}: must be >= 0")
+            g.attrs["n_bonds"] = np.int64(n_bonds)
+            units["n_bonds"] = "-"
+        g.attrs.update(label=label, step=np.int64(step), time=float(time), units=json.dumps(units))
         for name, values in data.items():
             g.create_dataset(name, data=values).attrs["units"] = FRAGMENT_UNITS[name]
         return g.name

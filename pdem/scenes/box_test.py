@@ -49,7 +49,7 @@ series ``sleeper_load``, ``sleeper_force`` [N, ballast reaction, positive up],
 """
 import numpy as np
 
-from ..build.config import CLUMP_KEYS, check_keys, grain_shape, run_settings, scene_from_dict
+from ..build.config import check_keys, run_settings, scene_from_dict
 from ..checks.diagnostics import kinetic_energy
 from ..format.schema import BOX_TEST_SERIES
 from ..driver import observables
@@ -61,10 +61,10 @@ from ..boundaries.loads import HalfSine, Haversine
 from ..build.validate import number
 from .common.preparation import PREPARATION_DEFAULTS, PreparedRun, add_cloud, check_preparation, \
     pour_stage, refill_stage, remove_where, settle_stage, vibrate_stage
+from .common.grains import RIGID_GRAIN_KEYS, grain_spec
 from .cycles import CycleRecorder
 
-# keys of [box_test.clumps]: a rigid grain (its shape, member radius, mass model)
-GRAIN_KEYS = CLUMP_KEYS - {"material", "box_lo", "box_hi", "count", "seed", "vel", "breakable", "stress_free"}
+GRAIN_KEYS = RIGID_GRAIN_KEYS  # keys of [box_test.clumps]: a rigid grain (its shape, member radius, mass model)
 # [box_test] keys and defaults (SPEC.md 2.3, thesis table 5.1; stiffness is in [materials]);
 # the preparation pipeline's keys (radius, seed, settle_*, vibration_* ...) are
 # `pdem.scenes.common.preparation.PREPARATION_DEFAULTS`
@@ -143,28 +143,24 @@ def box_settings(doc):
     for a, name in ((0, "length"), (1, "width")):
         if c["sleeper_size"][a] > c["box"][a]:
             raise InputError(f"box_test.sleeper_size = {c['sleeper_size']!r}: the sleeper's {name} exceeds the box's")
-    c["grain"] = grain_settings(c)
+    c["grain"] = grain_settings(doc, c)
     if "steps" in doc.get("run", {}):
         raise InputError("run.steps: not used by a box test (its stages end on settle_ratio, vibration_time and "
                          "cycles in [box_test]); remove it")
     return c
 
 
-def grain_settings(c):
+def grain_settings(doc, c):
     """None for sphere ballast, else the grain of ``[box_test.clumps]`` (rigid clumps: ``shape``
-    and its keys as a ``[[clumps]]`` table, ``mass_model``): {"members", "member_radii",
-    "mass_model", "discretization", "samples"}."""
+    and its keys as a ``[[clumps]]`` table, ``mass_model``; `pdem.scenes.common.grains.grain_spec`):
+    {"members", "member_radii", "mass_model", "discretization", "samples", ...}."""
     if "clumps" not in c:
         return None
-    label = "box_test.clumps"
-    g = c["clumps"]
-    check_keys(label, g, GRAIN_KEYS, ("shape",))
-    pos, radius = grain_shape(g, label)
+    g = grain_spec(doc, c["clumps"], "box_test.clumps", breakable=False)
     if c["cut"] == "center":
         raise InputError("box_test.cut = 'center': cuts spheres, which would split the clumps of [box_test.clumps]; "
                          "use cut = 'top' (whole clumps with a member above the cut are removed)")
-    return {"members": pos, "member_radii": radius, "mass_model": g.get("mass_model", "members"),
-            "discretization": g.get("discretization", 0), "samples": g.get("samples", 0)}
+    return g
 
 
 def sleeper_mass(doc, c):

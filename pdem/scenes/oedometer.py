@@ -52,7 +52,7 @@ from math import cos, pi
 import numpy as np
 
 from ..bodies.bonds import touching_pairs
-from ..build.config import CLUMP_KEYS, check_keys, grain_shape, run_settings, scene_from_dict
+from ..build.config import check_keys, run_settings, scene_from_dict
 from ..driver import observables
 from ..driver.fragments import FragmentRecorder
 from ..driver.results import series_writer, write_root_attrs
@@ -62,8 +62,9 @@ from ..errors import InputError
 from ..format.schema import OEDOMETER_SERIES
 from ..build.generators import sphere_radii
 from ..boundaries.loads import Haversine
-from ..build.validate import boolean, number
+from ..build.validate import number
 from .common.bounds import plausible
+from .common.grains import grain_spec as common_grain_spec
 from .common.preparation import PREPARATION_DEFAULTS, PREPARATION_STAGES, PreparedRun, check_preparation, \
     pour_stage, refill_stage, settle_stage, vibrate_stage
 
@@ -83,7 +84,6 @@ DEFAULTS = {
     "bond_boost": 1.0,                  # bond strengths × this from the start of the pour ... [-]
     "bond_boost_time": 0.0,             # ... for this long [s], then returned (thesis 4.5: tenfold)
 }
-GRAIN_KEYS = CLUMP_KEYS - {"material", "box_lo", "box_hi", "count", "seed", "vel"}
 TOP = {"simulation", "run", "materials", "oedometer"}
 
 
@@ -134,18 +134,7 @@ def grain_spec(doc, c):
     """None for spheres, else the checked [oedometer.clumps] table with (members, radii, breakable)."""
     if "clumps" not in c:
         return None
-    g = c["clumps"]
-    label = "oedometer.clumps"
-    check_keys(label, g, GRAIN_KEYS, ("shape",))
-    pos, radius = grain_shape(g, label)
-    g = dict(g)
-    g["breakable"] = boolean(f"{label}.breakable", g.get("breakable", False))
-    g["stress_free"] = boolean(f"{label}.stress_free", g.get("stress_free", True))
-    law = doc.get("simulation", {}).get("law", "linear")
-    if g["breakable"] and law != "cohesive":
-        raise InputError(f"{label}.breakable = true: bonds need simulation.law = \"cohesive\", got {law!r}")
-    g["members"], g["member_radii"] = pos, radius
-    return g
+    return common_grain_spec(doc, c["clumps"], "oedometer.clumps")
 
 
 def bond_push(doc, c):

@@ -26,6 +26,10 @@ and units in `DEFAULTS`, `TRAFFIC_DEFAULTS`; SI) describes:
   top), as in the thesis (its mould was 4 planes and 4 facets). ``half = true`` models the half
   on y >= 0 by symmetry (a wall at y = 0, sleeper y-translation blocked): the thesis's slice
   is ``half = true, sleepers = 1`` (600 mm of track, half-sleeper 1300 x 300 x 220 mm).
+- the ballast: spheres (``radius``, ``radius_spread``), or with a ``[track.clumps]`` table clumps
+  of one grain (`clump_settings`: the oedometer's keys, `pdem.scenes.common.grains`): rigid, or
+  breakable (bonded members, law "cohesive"; ``bond_boost`` [-] holds the bonds that much
+  stronger from the pour to the end of the refill). The cuts remove whole clumps.
 - The rail: by default not a body (a rigid sleeper that cannot rotate carries the rail-seat
   load wherever it acts, so the rail adds only its mass); with ``[traffic] rail_model = "beam"``
   an elastic beam on pads over the sleepers (`pdem.boundaries.rail_beam.SleeperRails`, keys
@@ -61,7 +65,8 @@ Results (`pdem.format.schema`, kind "track"): ``results.h5`` with /series (`TRAC
 settlement, gap under each sleeper; with the beam the peak load on each sleeper; turning sleepers:
 settlement of each end, tilts, the void under each end third, with the beam the load share),
 /forces/peak_passage_<p> and end_passage_<p> (contact force distributions, passages 1, every
-``forces_every``-th and the last); ``preparation.h5`` and
+``forces_every``-th and the last); with breakable grains /fragments/prepared (when the traffic
+starts) and /fragments/passage_<p> (the fragments and the intact bonds, `grading_record`); ``preparation.h5`` and
 ``.png``; ``analysis/`` (`python -m analysis track`); ``summary.txt`` (stages, passages, wall
 time, throughput, load balance over the ranks, timing table) and ``scaling.json`` (the same,
 for `bench.scaling_model`); ParaView snapshots (the spheres, walls and sleepers,
@@ -78,14 +83,16 @@ import numpy as np
 
 from ..build.config import check_keys, run_settings, scene_from_dict
 from ..driver import observables
+from ..driver.fragments import FragmentRecorder
 from ..driver.results import write_root_attrs
-from ..driver.stages import Stage, empty_tables
+from ..driver.stages import Stage, empty_tables, nothing
 from ..errors import InputError
 from ..io.checkpoint import CheckpointError, read_checkpoint
 from ..boundaries.loads import ETA_ZERO, AxleTrain, Haversine, SleeperLoad
 from ..boundaries.rail_beam import RailBeam, RailSection, SleeperRails
 from ..build.validate import boolean, number
 from .common.bounds import plausible
+from .common.grains import grain_reach, grain_spec
 from ..bodies.boxes import principal_inertia
 from .common.preparation import PREPARATION_DEFAULTS, PreparedRun, add_cloud, check_preparation, \
     pour_stage, refill_stage, remove_where, settle_stage, vibrate_stage
@@ -112,7 +119,10 @@ DEFAULTS = {
     **PREPARATION_DEFAULTS,
 }
 OPTIONAL = {"sleeper_mass", "sleeper_blocked", "sleeper_rotation", "sleeper_inertia",
-            "periodic"}  # periodic: no ends along x (`periodic_settings`)
+            "periodic",  # periodic: no ends along x (`periodic_settings`)
+            "clumps",    # the ballast as clumps, rigid or breakable (`clump_settings`)
+            "bond_boost"}  # breakable grains: bond strengths x this while the bed is prepared
+SPHERE_KEYS = ("radius", "radius_spread")  # size sphere ballast only
 TRAFFIC_DEFAULTS = {
     "program": "axles", "prepared": "", "forces_every": 0,
     # program "axles"
@@ -158,12 +168,14 @@ def track_settings(doc):
         if not isinstance(c[k], str) or c[k] not in doc.get("materials", {}):
             raise InputError(f"track.{k} = {c[k]!r}: no [materials.{c[k]}] table in the scene file")
     check_preparation("track", c)
+    c["grain"] = clump_settings(doc, given)
+    c["bond_boost"] = bond_boost_settings(c, given)
     c["sleepers"] = number("track.sleepers", c["sleepers"], 1, integer=True)
     for k in ("spacing", "gauge", "rail_head_width", "rail_foot_width", "bed_depth", "slope"):
         c[k] = number(f"track.{k}", c[k], 0.0, lo_open=True)
     for k in ("rail_mass", "shoulder_width"):
         c[k] = number(f"track.{k}", c[k], 0.0)
-    plausible("track", {k: v for k, v in c.items() if k != "sleeper_mass"})  # before the relations between keys
+    plausible("track", {k: v for k, v in c.items() if k not in ("sleeper_mass", "clumps", "grain")})
     w, length, h = c["sleeper_size"]
     if w >= c["spacing"]:
         raise InputError(f"track.sleeper_size = {c['sleeper_size']!r}: the sleeper width {w} m must be less than the "
@@ -173,7 +185,7 @@ def track_settings(doc):
         raise InputError(f"track.sleeper_size = {c['sleeper_size']!r}: the rail seats at y = ±{seat:g} m (gauge "
                          f"{c['gauge']:g} m) lie beyond the sleeper ends at ±{length / 2:g} m: the wheel loads would "
                          "reach no sleeper")
-    r_max = c["radius"] * (1 + c["radius_spread"])
+    r_max = ballast_reach(c)
     if c["bed_depth"] < 2 * r_max:
         raise InputError(f"track.bed_depth = {c['bed_depth']!r}: must hold at least one grain (>= {2 * r_max:g} m)")
     density = number(f"materials.{c['sleeper_material']}.density",
@@ -217,12 +229,56 @@ def track_settings(doc):
     return c
 
 
+def clump_settings(doc, given):
+    """None for sphere ballast, else the grain of ``[track.clumps]`` (the keys of the oedometer's
+    ``[oedometer.clumps]``: `pdem.scenes.common.grains.grain_spec`; rigid clumps, or breakable
+    grains with ``breakable = true`` and the cohesive law). The spheres' ``radius`` and
+    ``radius_spread`` are refused beside it (the grain's members size the ballast)."""
+    if "clumps" not in given:
+        return None
+    for k in SPHERE_KEYS:
+        if k in given:
+            raise InputError(f"track.{k} = {given[k]!r}: sizes sphere ballast, but [track.clumps] gives the ballast as "
+                             "clumps (their members size it); remove one of them")
+    return grain_spec(doc, given["clumps"], "track.clumps")
+
+
+def bond_boost_settings(c, given):
+    """``bond_boost`` [-] (default 1): the breakable grains' bond strengths a_N, a_T times this from
+    the start of the pour to the end of the preparation (the refill), returned when the traffic
+    starts: the pour drops the grains from up to the cloud's top, and those impacts, which a
+    placed ballast never sees, would break them (thesis 4.5 raised the bonds tenfold while its
+    oedometer's grains settled). Only with breakable grains; > 0."""
+    if "bond_boost" not in given:
+        return 1.0
+    g = c.get("grain")
+    if g is None or not g["breakable"]:
+        raise InputError(f"track.bond_boost = {given['bond_boost']!r}: scales bonds, which only breakable grains have "
+                         "([track.clumps] breakable = true); remove it")
+    return number("track.bond_boost", given["bond_boost"], 0.0, lo_open=True, allow="a factor > 0 [-]")
+
+
+def ballast_reach(c):
+    """The largest radius [m] of a ballast body: r (1 + spread) of the spheres, or the radius of the
+    sphere holding a grain (`grain_reach`)."""
+    return c["radius"] * (1 + c["radius_spread"]) if c.get("grain") is None else grain_reach(c["grain"])
+
+
+def ballast_radius(c):
+    """The ballast's nominal radius [m]: ``radius`` of the spheres, or a grain's reach (the speed
+    scale sqrt(g r) of the sleepers' rest test)."""
+    return c["radius"] if c.get("grain") is None else grain_reach(c["grain"])
+
+
 def periodic_settings(doc, c):
     """``[track] periodic = true``: the track has no ends along x (the engine's periodic ends over
     [0, L], L = sleepers x spacing: no end walls, `pdem.parallel.periodic_domain`); checked."""
     if "periodic" not in c:
         return
     c["periodic"] = boolean("track.periodic", c["periodic"])
+    if c["periodic"] and c.get("grain") is not None:
+        raise InputError("track.periodic = true: the engine's periodic ends take spheres only, not the clumps of "
+                         "[track.clumps] (rigid or breakable); remove one of them")
     sim = doc.get("simulation", {})
     if "periodic" in sim:
         raise InputError("simulation.periodic: set by track.periodic in a track scene; remove it")
@@ -350,8 +406,11 @@ def make_train(t, c, start):
 
 def check_ranks(c, doc, size):
     """A track shorter than ``size`` slabs of one halo each: one-line InputError."""
-    r_max = c["radius"] * (1 + c["radius_spread"])
-    skin = doc.get("simulation", {}).get("skin", 0.25 * c["radius"])
+    if c.get("grain") is None:
+        r_max, r_mean = c["radius"] * (1 + c["radius_spread"]), c["radius"]
+    else:  # the slabs hold member spheres (a clump's on the rank of its centre)
+        r_max, r_mean = float(np.max(c["grain"]["member_radii"])), float(np.mean(c["grain"]["member_radii"]))
+    skin = doc.get("simulation", {}).get("skin", 0.25 * r_mean)
     halo = 2 * r_max + float(skin)
     length = c["sleepers"] * c["spacing"]
     if size > 1 and length - 2 * r_max < size * halo:
@@ -440,7 +499,7 @@ def slope_facets(c):
     """Triangles (3 vertices each) of the slopes and their vertical lips, on each modelled side."""
     g = profile(c)
     L, z_top, y_top, y_toe = g["length"], g["z_top"], g["y_top"], g["y_toe"]
-    lip = z_top + 4 * c["radius"] * (1 + c["radius_spread"])
+    lip = z_top + 4 * ballast_reach(c)
     out = []
     for s in ((1.0,) if c["half"] else (1.0, -1.0)):
         quads = [((0, s * y_toe, 0), (L, s * y_toe, 0), (L, s * y_top, z_top), (0, s * y_top, z_top)),
@@ -484,6 +543,8 @@ def stage_scene(doc, c, tables, sleepers=True, loads=None, centres=None, mass=No
                           load=None if loads is None else loads[k], damping=scene.settings.damping,
                           name=f"sleeper_{k}", **turning)
     scene.add_sphere_columns(tables["particles"])
+    if "clumps" in tables:  # rigid clumps (breakable grains: their bonds come with the contacts)
+        scene.add_clump_tables(tables["clumps"], tables["clump_members"])
     return scene
 
 
@@ -559,18 +620,33 @@ class TrackRun(PreparedRun):
         """`PREPARATION` (compacted before the cut; the prepared bed saved after it), then
         ``traffic`` if a [traffic] table is given."""
         bed = self.bed_scene
-        stages = [pour_stage(self, bed, self.pour, at_rest=self.bodies_settled),
+        pour = pour_stage(self, bed, self.pour, at_rest=self.bodies_settled)
+        boost = self.c["bond_boost"] != 1.0
+        stages = [pour.then(prepare=self.boost_bonds) if boost else pour,
                   vibrate_stage(self, bed),
                   settle_stage(self, bed, at_rest=self.bodies_settled),
                   replace(refill_stage(self, self.stage_scene, self.refill, at_rest=self.bodies_settled),
                           saved=self.save_prepared_bed)]
         if self.t is not None:
             stages.append(Stage("traffic", self.traffic_scene, self.load_program, open=self.open_traffic,
+                                prepare=self.release_bonds if boost else nothing,
                                 close=lambda sim: self.stage_done(sim, "traffic"), record=self.stage_record))
         return stages
 
+    def boost_bonds(self, sim, scene, mid_stage):
+        """At the start of the pour: the bond strengths times ``bond_boost`` (`bond_boost_settings`)."""
+        if not mid_stage:
+            sim.scale_bond_strength(self.c["bond_boost"])
+            self.loop.log(f"bond strengths x {self.c['bond_boost']:g} until the traffic starts (track.bond_boost)")
+
+    def release_bonds(self, sim, scene, mid_stage):
+        """At the start of the traffic: the bonds back to their strength (c r^2 of the material)."""
+        if not mid_stage:
+            sim.scale_bond_strength(1.0 / self.c["bond_boost"])
+            self.loop.log(f"bond strengths returned (/ {self.c['bond_boost']:g}) at t = {sim.time:.4g} s")
+
     def initial_state(self):
-        return {"traffic_start": None, "tracker": None, "prepared_from": None, "forces": []}
+        return {"traffic_start": None, "tracker": None, "prepared_from": None, "forces": [], "bonds": []}
 
     def checkpoint_state(self):
         return {**self.state, "tracker": self.tracker.state() if self.tracker else None}
@@ -596,7 +672,8 @@ class TrackRun(PreparedRun):
         diff = same_preparation(tomllib.loads(meta["scene_file"]), self.doc)
         if diff is not None:
             raise InputError(f"traffic.prepared = {self.t['prepared']!r}: prepared from another scene ({diff})")
-        state = {**state, "prepared_from": str(path), "traffic_start": None, "tracker": None, "forces": []}
+        state = {**state, "prepared_from": str(path), "traffic_start": None, "tracker": None, "forces": [],
+                 "bonds": []}
         self.loop.log(f"starting from the prepared bed {path} (step {meta['step']}, t = {meta['time']:.6e} s, "
                       f"{len(tables['particles']['gid'])} spheres)")
         return tables, meta, state
@@ -624,15 +701,21 @@ class TrackRun(PreparedRun):
         g = profile(c)
         tables = add_cloud(empty_tables(), self.doc, c, (0.0, g["y_lo"]), (g["length"], g["y_toe"]), 0.0,
                            g["length"] * (g["y_toe"] - g["y_lo"]) * g["z_top"], c["seed"], 0, WHERE)
-        return tables, f"poured {len(tables['particles']['gid'])} spheres"
+        n = len(tables["particles"]["gid"])
+        if c["grain"] is None:
+            return tables, f"poured {n} spheres"
+        k = len(c["grain"]["member_radii"])
+        return tables, (f"poured {n // k} {'breakable' if c['grain']['breakable'] else 'rigid'} clumps of {k} "
+                        f"spheres ({n} spheres)")
 
     def refill(self, tables):
         c = self.c
         tables, cut = remove_where(tables, lambda pos, r: outside_bed(c, pos, r))
         tables, slots = remove_where(tables, lambda pos, r: in_sleepers(c, pos, r))
+        whole = "" if c["grain"] is None else ", whole clumps"
         return tables, (f"cut the bed to its shape ({cut} spheres above z_top = {profile(c)['z_top']:g} m or beyond "
-                        f"the slopes), cleared {c['sleepers']} sleeper slot(s) ({slots} spheres), placed the sleepers "
-                        "and the slope facets")
+                        f"the slopes{whole}), cleared {c['sleepers']} sleeper slot(s) ({slots} spheres), placed the "
+                        "sleepers and the slope facets")
 
     def bed_scene(self, tables):
         """The scene before the cut: no sleepers yet."""
@@ -652,7 +735,7 @@ class TrackRun(PreparedRun):
         """The sleepers at rest: on every one, |net force| / weight and |velocity| / sqrt(g r)
         below settle_ratio (a sleeper dropped into its slot bounces on the bed at ~10 Hz, which
         the spheres' ratio does not see)."""
-        v_ref = (float(np.linalg.norm(sim.gravity)) * self.c["radius"]) ** 0.5
+        v_ref = (float(np.linalg.norm(sim.gravity)) * ballast_radius(self.c)) ** 0.5
         f, v = observables.box_rest(sim, v_ref)
         return f < self.c["settle_ratio"] and v < self.c["settle_ratio"]
 
@@ -660,7 +743,7 @@ class TrackRun(PreparedRun):
         if sim.boxes is None:
             return ""
         base = sim.boxes.center[:, 2] - sim.boxes.half[:, 2]
-        f, v = observables.box_rest(sim, (float(np.linalg.norm(sim.gravity)) * self.c["radius"]) ** 0.5)
+        f, v = observables.box_rest(sim, (float(np.linalg.norm(sim.gravity)) * ballast_radius(self.c)) ** 0.5)
         return (f", sleeper centre z {1e3 * self.sleeper_z(sim):.1f} mm (mean; bottoms {1e3 * base.min():.1f} .. "
                 f"{1e3 * base.max():.1f} mm; net force/weight {f:.2g}, "
                 f"speed/sqrt(gr) {v:.2g})")
@@ -721,6 +804,9 @@ class TrackRun(PreparedRun):
         if self.comm.rank == 0 and not resumed:
             write_root_attrs(self.results, {k: self.doc[k] for k in ("simulation", "materials", "track", "traffic")},
                              "track")
+        frag = self.fragment_recorder()
+        if frag is not None and not resumed:  # the grading of the prepared bed
+            self.grading_record(sim, frag, "prepared")
         first = None if resumed else sim.step + 1  # the first row: after the first step (forces computed)
         n = len(ends)
         every = self.t["forces_every"]
@@ -750,15 +836,45 @@ class TrackRun(PreparedRun):
                                   f"{1e3 * max(more['gap_lo'].max(), more['gap_hi'].max()):.3f} mm")
                 if recorded(p):
                     self.force_record(f"end_passage_{p}", sim)
+                if frag is not None:
+                    self.grading_record(sim, frag, f"passage_{p}")
                 self.loop.log(f"passage {p}/{n} done at t = {sim.time:.4f} s: settlement peak "
                               f"{1e3 * row[2].mean():.3f} (max {1e3 * row[2].max():.3f}) mm, permanent "
                               f"{1e3 * row[3].mean():.3f} ({1e3 * row[3].min():.3f} .. {1e3 * row[3].max():.3f}) mm, "
                               f"gap max {1e3 * gap.max():.3f} mm")
             elif sim.step == first or (run["output_every"] and sim.step % run["output_every"] == 0):
                 w.append(*sleeper_sample(sim, tr))
+            if frag is not None:
+                frag.on_step(sim)
             self.snapshot(sim)
 
         return on_step, lambda sim: tr.done, 1, ends[-1]
+
+    def fragment_recorder(self):
+        """The fragment records of breakable grains (`FragmentRecorder`, also every
+        run.fragments_every steps); None for spheres and rigid clumps (nothing breaks)."""
+        g = self.c["grain"]
+        if g is None or not g["breakable"]:
+            return None
+        return FragmentRecorder(self.results, self.comm, every=self.run_cfg["fragments_every"], bonds=True)
+
+    def grading_record(self, sim, frag, label):
+        """``/fragments/<label>`` (collective; "prepared" when the traffic starts, "passage_<p>" at
+        the end of passage p) and the log line: intact bonds, bonds broken since the record
+        before, fragments and the mass in intact grains. ``state["bonds"]`` keeps the intact bonds
+        of every record (a resumed run logs the same)."""
+        f = frag.record(sim, label)
+        n_bonds = self.comm.allreduce_sum_int(f["n_bonds"] if f is not None else 0)
+        done = self.state["bonds"]
+        broken = "" if not done else f", {done[-1] - n_bonds} broken since the record before"
+        done.append(n_bonds)
+        if f is not None:
+            k = len(self.c["grain"]["member_radii"])
+            intact = float(f["mass"][f["n_members"] == k].sum() / f["mass"].sum())
+            self.loop.log(f"grading {label}: {n_bonds} intact bonds{broken}; {len(f['mass'])} fragments, "
+                          f"{100 * intact:.2f} % of the mass in whole grains, "
+                          f"{100 * float(f['mass'][f['n_members'] == 1].sum() / f['mass'].sum()):.2f} % in single "
+                          "spheres")
 
     def turning_record(self, sim, load_peak, load):
         """The /passages tables of turning sleepers at the end of a passage (collective): settlement
@@ -810,8 +926,7 @@ class TrackRun(PreparedRun):
         return {"scene": "track", "ranks": self.comm.size, "bodies": self.n_bodies, "steps": steps,
                 "rebuilds": sim.n_rebuilds - self.rebuilds0, "wall_s": wall_s, "spacing": self.c["spacing"],
                 "track_length": g["length"], "sleepers": self.c["sleepers"],
-                "bodies_per_metre": self.n_bodies / g["length"], "radius": self.c["radius"],
-                "radius_spread": self.c["radius_spread"], "timers_max_s": self.timers_max,
+                "bodies_per_metre": self.n_bodies / g["length"], **sphere_size(self.c), "timers_max_s": self.timers_max,
                 "timers_total_max_s": self.timers_total_max, "loads": self.loads_report,
                 "uptime": _load_average()}
 
@@ -841,6 +956,14 @@ class TrackRun(PreparedRun):
                        notes=balance_lines(self.write_scaling(sim, wall_s))
                        + (["", f"traffic: {self.traffic_text()}"] if traffic else []),
                        traffic=traffic)
+
+
+def sphere_size(c):
+    """{"radius", "radius_spread"} of the spheres the slabs hold [m, -]: the ballast's, or a grain's
+    members (their largest radius, spread 0)."""
+    if c.get("grain") is None:
+        return {"radius": c["radius"], "radius_spread": c["radius_spread"]}
+    return {"radius": float(np.max(c["grain"]["member_radii"])), "radius_spread": 0.0}
 
 
 def _load_average():

@@ -38,9 +38,10 @@ height of the scene's rigid bodies [m], 0 before they are placed) and ``preparat
 run.snapshot_every steps and at the end of every stage.
 
 The ballast bodies are spheres (`add_cloud`, radius ``radius`` [m] with ``radius_spread`` [-]),
-or rigid clumps of one shape if the scene sets ``c["grain"]`` (`add_grain_cloud`; the box
-test's ``[box_test.clumps]``): the cuts (`pdem.driver.stages.remove_above` removes whole
-clumps), placements and settling are per body, not per sphere shape.
+or clumps of one shape if the scene sets ``c["grain"]`` (`add_grain_cloud`; the box test's
+``[box_test.clumps]``, rigid; the track's ``[track.clumps]``, rigid or breakable): the cuts
+(`pdem.driver.stages.remove_above` and `remove_where` remove whole clumps), placements and
+settling are per body, not per sphere shape.
 """
 from math import cos, pi, sin
 
@@ -129,8 +130,9 @@ def add_cloud(tables, doc, c, lo_xy, hi_xy, z0, volume, seed, first_gid, where):
 
 
 def add_grain_cloud(tables, doc, c, lo_xy, hi_xy, z0, volume, seed, first_gid, where):
-    """``tables`` with a loose cloud of rigid clumps appended: ``c["grain"]`` = {"members",
-    "member_radii", "mass_model", ...} (one grain about its centre), as many as fill ``volume``
+    """``tables`` with a loose cloud of clumps appended: ``c["grain"]`` = {"members",
+    "member_radii", "mass_model", ...} (one grain about its centre; `pdem.scenes.common.grains`),
+    rigid, or breakable if its ``breakable`` (bonds as ``contacts/sphere_sphere`` rows), as many as fill ``volume``
     [m³] at the packing fraction times the overfill (by the members' volume), each turned at
     random (`pdem.bodies.clump_generators.grain_cloud`), on a lattice from z0 up; member gids from
     ``first_gid``, clump ids after the tables' largest."""
@@ -147,20 +149,36 @@ def add_grain_cloud(tables, doc, c, lo_xy, hi_xy, z0, volume, seed, first_gid, w
     grains = grain_cloud(pos, radius, (lo_xy[0], lo_xy[1], z0), (hi_xy[0], hi_xy[1], top + 1e-9), n, seed,
                          label=f"{where[0]}.clumps")
     scene = scene_from_dict({k: v for k, v in doc.items() if k in ("simulation", "materials")})
+    if g.get("breakable"):  # bonded members (the oedometer's breakable grains), stress free by default
+        kind = {"breakable": True, "stress_free": g["stress_free"]}
+    else:
+        kind = {"mass_model": g["mass_model"], "discretization": g["discretization"], "samples": g["samples"],
+                "seed": seed}
     new = clump_tables(scene, grains, c["ballast_material"], first_gid, next_free_clump(tables),
-                       mass_model=g["mass_model"], discretization=g["discretization"], samples=g["samples"],
-                       seed=seed, label=f"{where[0]}.clumps")
+                       label=f"{where[0]}.clumps", **kind)
     return append_tables(tables, new)
 
 
 def remove_where(tables, outside):
-    """Drop the spheres for which ``outside(pos, radius)`` (arrays of all spheres) is true;
-    returns (tables, removed)."""
+    """Drop the spheres for which ``outside(pos, radius)`` (arrays of all spheres) is true, and
+    whole clumps (rigid or breakable) of which some member is (with the rigid clumps' rows of
+    ``clumps``/``clump_members``); returns (tables, removed spheres)."""
     p = tables["particles"]
-    keep = ~np.asarray(outside(p["pos"], p["radius"]), bool)
+    drop = np.asarray(outside(p["pos"], p["radius"]), bool)
+    clump = p.get("clump")
+    cut = np.zeros(0, np.int64)
+    if clump is not None and np.any(clump[drop] >= 0):
+        cut = np.unique(clump[drop & (clump >= 0)])
+        drop |= np.isin(clump, cut)
+    keep = ~drop
     out = dict(tables)
     out["particles"] = {k: v[keep] for k, v in p.items()}
-    return out, int((~keep).sum())
+    if "clumps" in tables and len(cut):
+        kept = ~np.isin(tables["clumps"]["id"], cut)
+        out["clumps"] = {k: v[kept] for k, v in tables["clumps"].items()}
+        mk = ~np.isin(tables["clump_members"]["clump"], cut)
+        out["clump_members"] = {k: v[mk] for k, v in tables["clump_members"].items()}
+    return out, int(drop.sum())
 
 
 def shaking(c, t):
