@@ -20,9 +20,7 @@ from pathlib import Path
 
 from pdem.format.read import ResultFileError, results_file
 
-from . import blast, grading, oedometer, run_summary, track, validation
-from .stiffness import LOADING_WINDOW, UNLOADING_FRACTION
-from .summary import run_box
+# the sub-commands' modules import matplotlib and scipy: they are imported after `missing_package`
 
 PROG = f"python -m {__package__}"  # analysis (a checkout) or pdem_analysis (installed)
 EXIT_BAD_INPUT = 2
@@ -42,6 +40,10 @@ class _Parser(argparse.ArgumentParser):
 
 
 def build_parser() -> argparse.ArgumentParser:
+    from . import blast, box_checks, campaign, error_vs_runtime, grading, oedometer, run_summary, stability, track, \
+        validation
+    from .stiffness import LOADING_WINDOW, UNLOADING_FRACTION
+
     parser = _Parser(prog=PROG, description="Analyse pdem HDF5 result files.")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
     box = sub.add_parser(
@@ -62,8 +64,6 @@ def build_parser() -> argparse.ArgumentParser:
                                        "stiffness (default: %(default)s)")
     for module in (grading, blast, track, oedometer, run_summary, validation):
         module.add_parser(sub)
-    from . import box_checks, campaign, error_vs_runtime, stability
-
     campaign.add_parser(sub)
     box_checks.add_parser(sub)
     error_vs_runtime.add_parser(sub)
@@ -82,6 +82,9 @@ def main(argv=None) -> int:
         return EXIT_BAD_INPUT
     if args.command in ("campaign", "error-vs-runtime", "stability", "box-checks"):
         return _run_campaign(args)
+    from . import validation
+    from .summary import run_box
+
     try:
         if hasattr(args, "run"):
             written = args.run(args)
