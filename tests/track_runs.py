@@ -46,17 +46,19 @@ def assert_same_bodies_on_3_ranks(base, scene, step, box_columns=("center",)):
         assert np.array_equal(ref["boxes"][col], got["boxes"][col]), f"step {step}, 3 ranks: boxes/{col}"
 
 
-def assert_resume_in_passage_2(base, scene):
-    """A copy of the 2-rank run ``base/r2`` cut back to a checkpoint inside passage 2 and run
-    again on 2 ranks rewrites the records of the 1-rank run ``base/r1`` bit for bit; returns the
-    resumed run's result."""
+def assert_resume_in_passage(base, scene, passage=2):
+    """A copy of the 2-rank run ``base/r2`` cut back to a checkpoint inside ``passage`` (1-based:
+    after the previous passage's end, before this one's) and run again on 2 ranks rewrites the
+    records of the 1-rank run ``base/r1`` bit for bit; returns the resumed run's result."""
     out = base / "resume"
     shutil.copytree(base / "r2", out)
-    ends = read_track(out / "results.h5").passages["t_end"]
-    steps = [s for s, _ in list_checkpoints(out / "checkpoints")]
-    inside = [s for s in steps[:-1] if ends[0] < read_checkpoint(out / "checkpoints" / f"ckpt_{s:012d}.h5")[1]
-              ["time"] < ends[1]]
-    mid = inside[len(inside) // 2]  # inside passage 2
+    rec = read_track(out / "results.h5").passages
+    lo = float(rec["t_end"][passage - 2] if passage > 1 else rec["t_start"][0])
+    hi = float(rec["t_end"][passage - 1])
+    inside = [s for s, path in list_checkpoints(out / "checkpoints")[:-1]
+              if lo < read_checkpoint(path)[1]["time"] < hi]
+    assert inside, f"no checkpoint inside passage {passage}"
+    mid = inside[len(inside) // 2]
     for s, path in list_checkpoints(out / "checkpoints"):
         if s > mid:
             path.unlink()

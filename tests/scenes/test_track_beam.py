@@ -30,7 +30,7 @@ from pdem.format.groups import read_track
 from pdem.scenes.track import make_train, track_settings, traffic_settings
 from pdem_cli import needs_mpiexec, run_pdem
 from test_track import DOC, SCENE
-from track_runs import assert_resume_in_passage_2, assert_same_bodies_on_3_ranks, assert_same_results, prepared_runs
+from track_runs import assert_resume_in_passage, assert_same_bodies_on_3_ranks, assert_same_results, prepared_runs
 
 # the reduced track's rail scaled with its stiffness (E_k / 1e5): EI and pads so that the rail spreads a
 # wheel over about as many sleepers as a real track's; 1 kN axles (2 kN overloads this 2.4-grain bed)
@@ -191,7 +191,7 @@ def test_same_bits_on_1_and_2_ranks_and_3_ranks_to_a_checkpoint(beam_runs):
 @pytest.mark.slow
 def test_resume_in_the_middle_of_a_passage(beam_runs):
     base, scene, _, _ = beam_runs
-    assert_resume_in_passage_2(base, scene)
+    assert_resume_in_passage(base, scene)
 
 
 @needs_mpiexec

@@ -23,7 +23,6 @@ grading per passage.
 """
 import copy
 import math
-import shutil
 import tomllib
 
 import numpy as np
@@ -32,12 +31,12 @@ import pytest
 from pdem.build.config import scene_from_dict
 from pdem.driver.stages import append_tables, clump_tables, empty_tables
 from pdem.errors import InputError
-from pdem.format.groups import read_fragments, read_track
+from pdem.format.groups import read_fragments
 from pdem.io.checkpoint import list_checkpoints, read_checkpoint
 from pdem.scenes.common.preparation import remove_where
 from pdem.scenes.track import track_settings, traffic_settings
 from pdem_cli import needs_mpiexec, run_pdem
-from track_runs import assert_same_results, prepared_runs
+from track_runs import assert_resume_in_passage, assert_same_results, prepared_runs
 
 R = 0.015          # member radius [m]
 DENSITY = 2600.0   # [kg/m^3]
@@ -264,16 +263,4 @@ def test_breakable_run_resumed_in_the_passage_rewrites_the_same_records(runs):
     breakable, base, scene_path, _, _ = runs
     if not breakable:
         pytest.skip("the breakable run only")
-    out = base / "resume"
-    shutil.copytree(base / "r2", out)
-    passages = read_track(out / "results.h5").passages
-    t0, t1 = float(passages["t_start"][0]), float(passages["t_end"][0])
-    inside = [s for s, p in list_checkpoints(out / "checkpoints") if t0 < read_checkpoint(p)[1]["time"] < t1]
-    assert inside, "no checkpoint inside the passage"
-    mid = inside[len(inside) // 2]
-    for s, path in list_checkpoints(out / "checkpoints"):
-        if s > mid:
-            path.unlink()
-    r = run_pdem(2, scene_path, out)
-    assert f"at step {mid} (stage traffic" in r.stdout and "(resumed)" in r.stdout
-    assert_same_results(base / "r1" / "results.h5", out / "results.h5", "after the restart")
+    assert_resume_in_passage(base, scene_path, passage=1)

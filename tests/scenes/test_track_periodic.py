@@ -23,7 +23,7 @@ from pdem.driver.stages import empty_tables
 from pdem.scenes.track import profile, stage_scene, track_settings, traffic_settings
 from pdem_cli import needs_mpiexec
 from test_track import DOC
-from track_runs import assert_resume_in_passage_2, assert_same_bodies_on_3_ranks, assert_same_results, prepared_runs
+from track_runs import assert_resume_in_passage, assert_same_bodies_on_3_ranks, assert_same_results, prepared_runs
 from test_track_beam import PREPARE, beam_scene
 
 
@@ -93,4 +93,4 @@ def test_periodic_track_same_bits_on_1_2_3_ranks_and_after_a_restart(periodic_ru
     a = assert_same_results(base / "r1" / "results.h5", base / "r2" / "results.h5", "1 and 2 ranks")
     assert "passages/load_peak" in a
     assert_same_bodies_on_3_ranks(base, scene, 4200)  # the prepared bed is at step 3800: 400 steps of traffic
-    assert_resume_in_passage_2(base, scene)
+    assert_resume_in_passage(base, scene)

@@ -28,7 +28,7 @@ from pdem.scenes.track import check, check_pad_step, seat_offsets, track_setting
 from pdem_cli import needs_mpiexec, run_pdem
 from test_track import DOC
 from test_track_beam import PREPARE, beam_scene
-from track_runs import assert_resume_in_passage_2, assert_same_bodies_on_3_ranks, assert_same_results, prepared_runs
+from track_runs import assert_resume_in_passage, assert_same_bodies_on_3_ranks, assert_same_results, prepared_runs
 
 TURNING = "half = true\nsleeper_rotation = true"
 
@@ -154,4 +154,4 @@ def test_same_bits_on_1_2_and_3_ranks(tilt_runs):
 @pytest.mark.slow
 def test_resume_in_the_middle_of_a_passage(tilt_runs):
     base, scene, _, _ = tilt_runs
-    assert_resume_in_passage_2(base, scene)
+    assert_resume_in_passage(base, scene)
