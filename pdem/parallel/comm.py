@@ -39,6 +39,7 @@ __all__ = ["LaunchError", "MpiComm", "SerialComm", "configure_threads", "get_com
 _SIZE_VARS = ("PMI_SIZE", "OMPI_COMM_WORLD_SIZE", "MV2_COMM_WORLD_SIZE", "SLURM_STEP_NUM_TASKS")
 
 _FAILURE_COMMS = {}  # communicator handle -> its duplicate for agree_on_failure
+ABORT_FORWARD_S = 1.0  # [s] MpiComm.abort: time for the launcher to forward the last lines
 
 _TAG_LO = 71  # neighbour_exchange: messages travelling towards rank - 1
 _TAG_HI = 73  # ... towards rank + 1 (each uses tag and tag + 1)
@@ -439,10 +440,14 @@ class MpiComm:
 
     def abort(self, message, status=1):
         """Print ``message`` on stderr, flush, and ``MPI_Abort(status)`` the whole job (every
-        rank ends, including those blocked in a collective)."""
+        rank ends, including those blocked in a collective). Between the flush and the abort,
+        `ABORT_FORWARD_S` for the launcher to forward what was written: Hydra's proxy reads the
+        rank's pipes asynchronously and the abort kills it, so on a loaded machine the line was
+        lost (seen: exit 1, empty stderr, 3 ranks at load average 3)."""
         sys.stderr.write(f"{message}\n")
         sys.stderr.flush()
         sys.stdout.flush()
+        time.sleep(ABORT_FORWARD_S)
         self.comm.Abort(int(status))
 
 
