@@ -28,18 +28,18 @@ THESIS_MM, THESIS_KN, THESIS_E = 16.0, 2.0, 2.8e6  # thesis fig. 6.6: about 16 m
 SCALED_MM = {"vibrated": 2.09, "not vibrated": 3.95}  # docs/track.md: pdem's slice at 2 kN, E_k 2.8e6 Pa
 
 
-def drift(run, half_h, window=0.01):
+def drift(run, half_h, window=0.01, prepared=None):
     """Rate [m/s, positive down] at which the sleeper sank in the last ``window`` [s] before the load
     (least squares on the last preparation stage's rows of preparation.h5), and that window."""
     import h5py
 
-    with h5py.File(run / "preparation.h5", "r") as f:
+    with h5py.File((prepared or run) / "preparation.h5", "r") as f:
         st, t, z = (f[f"series/{k}"][()] for k in ("stage", "time", "sleeper_z"))
     last = (st == st.max()) & (t >= t.max() - window)
     return -float(np.polyfit(t[last], z[last] - half_h, 1)[0]), (float(t[last].min()), float(t[last].max()))
 
 
-def report(run, dest):
+def report(run, dest, prepared=None, name="slice_full"):
     import matplotlib
 
     matplotlib.use("Agg")
@@ -58,13 +58,17 @@ def report(run, dest):
     time = rec.results.series["time"]
     stages = info["stages"]
     names = [st["stage"] for st in stages]
+    if prepared is not None:  # the traffic only here: the preparation's stages are the prepared run's
+        stages = json.loads((prepared / "run_info.json").read_text())["stages"][:-1] + stages
     base = {st["stage"]: st["sleeper_z"] - half_h for st in stages if st.get("sleeper_z")}
     seat_refill = c["bed_depth"] - base["refill"]
     seat_stiffen = c["bed_depth"] - base.get("stiffen", base["refill"])
     peak, perm = float(p["settlement_peak"][0, 0]), float(p["settlement_permanent"][0, 0])
-    rate, window = drift(run, half_h)
+    rate, window = drift(run, half_h, prepared=prepared)
     corrected = s - rate * (time - time[0])  # the pre-load sinking extrapolated and taken off
     peak_c, perm_c = float(corrected.max()), float(corrected[-1])
+    at = int(np.argmax(load))  # the sample of the largest load
+    at_load, at_load_c = float(s[at]), float(corrected[at])
     f_max = t["f_max"]
     scale = (f_max / e_k) / (THESIS_KN * 1e3 / THESIS_E)  # load/stiffness against the thesis's run
     dts = rec.results.series["dt"]
@@ -91,8 +95,10 @@ def report(run, dest):
           f"stiffening | {1e3 * seat_refill:.3f} / {1e3 * seat_stiffen:.3f} mm |",
           f"| the sleeper still sinking before the load (t = {window[0]:.4f} .. {window[1]:.4f} s, fit) | "
           f"{1e3 * rate:.3f} mm/s |",
-          f"| settlement at the peak ({f_max / 1e3:g} kN): as recorded (from where the load started) | "
-          f"{1e6 * peak:.2f} µm |",
+          f"| settlement at the instant of the largest load ({load[at] / 1e3:.1f} kN, "
+          f"{1e3 * (time[at] - time[0]):.1f} ms): as recorded (from where the load started) / less the pre-load "
+          f"sinking | {1e6 * at_load:.2f} / {1e6 * at_load_c:.2f} µm |",
+          f"| largest settlement in the pulse (the passage's 'peak'), as recorded | {1e6 * peak:.2f} µm |",
           f"| permanent after the pulse, as recorded | {1e6 * perm:.2f} µm |",
           f"| the same less the pre-load sinking extrapolated: largest / after the pulse | {1e6 * peak_c:.2f} / "
           f"{1e6 * perm_c:.2f} µm |",
@@ -106,8 +112,9 @@ def report(run, dest):
     fig, ax = plt.subplots(1, 2, figsize=(12, 4.5))
     ax[0].plot(1e6 * s, load / 1e3, lw=1.0, label=f"pdem, E_k {e_k:.2g} Pa, 0 -> {f_max / 1e3:g} kN -> 0, as recorded")
     ax[0].plot(1e6 * corrected, load / 1e3, lw=1.0, label=f"less the pre-load sinking ({1e3 * rate:.2f} mm/s)")
-    ax[0].set(xlabel="sleeper settlement [µm] (down, from the start of the load)", ylabel="rail-seat load [kN]",
-              title=f"Track slice at full stiffness: {1e6 * peak_c:.1f} µm (corrected) at {f_max / 1e3:g} kN\n"
+    ax[0].set(xlabel="sleeper settlement [µm] (down, from where the load started)", ylabel="rail-seat load [kN]",
+              title=f"Track slice at full stiffness: {1e3 * at_load:.3g} mm at {f_max / 1e3:g} kN, "
+                    f"{1e3 * perm:.3g} mm after\n"
                     "(thesis at E_k 2.8e6 Pa, 2 kN: ~16 mm; pdem scaled: 2.1 mm)")
     ax[1].plot(1e3 * (time - time[0]), 1e6 * s, lw=1.0, label="settlement [µm], as recorded")
     ax[1].plot(1e3 * (time - time[0]), 1e6 * corrected, lw=1.0, label="less the pre-load sinking")
@@ -120,10 +127,10 @@ def report(run, dest):
         a.legend(fontsize="small", loc="upper left")
     fig.tight_layout()
     dest.mkdir(parents=True, exist_ok=True)
-    fig.savefig(dest / "slice_full.png", dpi=110)
+    fig.savefig(dest / f"{name}.png", dpi=110)
     plt.close(fig)
-    md += ["![slice at full stiffness](slice_full.png)", ""]
-    (dest / "slice_full.md").write_text("\n".join(md) + "\n")
+    md += [f"![slice at full stiffness]({name}.png)", ""]
+    (dest / f"{name}.md").write_text("\n".join(md) + "\n")
     print("\n".join(md))
     return names
 
@@ -132,8 +139,11 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("run", type=Path)
     ap.add_argument("--report", type=Path, default=None)
+    ap.add_argument("--prepared", type=Path, default=None,
+                    help="the run that prepared the bed (a run with [traffic] prepared): its preparation.h5")
+    ap.add_argument("--name", default="slice_full", help="stem of the .md and .png written")
     args = ap.parse_args(argv)
-    report(args.run, args.report or args.run)
+    report(args.run, args.report or args.run, args.prepared, args.name)
     return 0
 
 
