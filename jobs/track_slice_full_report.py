@@ -58,8 +58,6 @@ def report(run, dest, prepared=None, name="slice_full"):
     time = rec.results.series["time"]
     stages = info["stages"]
     names = [st["stage"] for st in stages]
-    if prepared is not None:  # the traffic only here: the preparation's stages are the prepared run's
-        stages = json.loads((prepared / "run_info.json").read_text())["stages"][:-1] + stages
     base = {st["stage"]: st["sleeper_z"] - half_h for st in stages if st.get("sleeper_z")}
     seat_refill = c["bed_depth"] - base["refill"]
     seat_stiffen = c["bed_depth"] - base.get("stiffen", base["refill"])
@@ -140,7 +138,7 @@ def main(argv=None):
     ap.add_argument("run", type=Path)
     ap.add_argument("--report", type=Path, default=None)
     ap.add_argument("--prepared", type=Path, default=None,
-                    help="the run that prepared the bed (a run with [traffic] prepared): its preparation.h5")
+                    help="the run that prepared the bed (for a run with [traffic] prepared): its preparation.h5")
     ap.add_argument("--name", default="slice_full", help="stem of the .md and .png written")
     args = ap.parse_args(argv)
     report(args.run, args.report or args.run, args.prepared, args.name)
