@@ -46,6 +46,10 @@ the thesis's order for the track (compact the bed, then cut it and place the sle
                 checkpoint is copied to ``prepared.h5``: the prepared bed, which any number of
                 load programs start from ([traffic] prepared = that file or its run directory)
                 without preparing again.
+   ``stiffen``  (only with ``prep_stiffness_factor`` f < 1, law linear: stages 1-4 then ran with
+                every material's young times f) the stiffness raised to the materials' over
+                ``stiffen_time`` [s], settled (`pdem.scenes.common.stiffening`, the box test's
+                stage); its end-of-stage checkpoint is then the prepared bed.
 5. ``traffic``  (only with a ``[traffic]`` table) ``program = "axles"``: `pdem.boundaries.loads.AxleTrain`
                 (``passages`` trains of axles at positions ``axles`` [m] behind the first,
                 ``axle_load`` [N], ``speed`` [m/s]; each sleeper carries the time-shifted
