@@ -18,9 +18,10 @@ A scene file with a ``[box_test]`` table (keys and defaults in `DEFAULTS`, units
                 ``frequency`` [Hz] for ``cycles`` cycles (`pdem.boundaries.loads.Haversine`, pushing down).
 
 With ``prep_stiffness_factor`` f < 1 (law linear) stages 1–4 run with every material's young
-times f, and a ``stiffen`` stage before ``load`` raises it to the materials' over ``stiffen_time``
-(`BoxTestRun.stiffen_program`), then settles. With a ``[box_test.clumps]`` table the ballast is
-rigid clumps of that grain (`grain_settings`; `pdem.scenes.common.preparation.add_grain_cloud`).
+times f, and a ``stiffen`` stage before ``load`` raises it to the materials' over ``stiffen_time``,
+then settles (`pdem.scenes.common.stiffening`, shared with the track). With a
+``[box_test.clumps]`` table the ballast is rigid clumps of that grain (`grain_settings`;
+`pdem.scenes.common.preparation.add_grain_cloud`).
 
 Options for what the thesis leaves open (``CHOICES``; docs/box_test.md "Options"): ``cut``
 ("top" | "center"), ``sleeper_placement`` ("cut" | "on_top", `sleeper_on_top`), ``refill``
@@ -52,7 +53,6 @@ import numpy as np
 from ..build.config import check_keys, run_settings, scene_from_dict
 from ..checks.diagnostics import kinetic_energy
 from ..format.schema import BOX_TEST_SERIES
-from ..driver import observables
 from ..driver.observables import box_face_forces
 from ..driver.results import series_writer, write_cycles, write_root_attrs
 from ..driver.stages import Stage, empty_tables, remove_above, scaled_stiffness
@@ -62,6 +62,7 @@ from ..build.validate import number
 from .common.preparation import PREPARATION_DEFAULTS, PreparedRun, add_cloud, check_preparation, \
     pour_stage, refill_stage, remove_where, settle_stage, vibrate_stage
 from .common.grains import RIGID_GRAIN_KEYS, grain_spec
+from .common.stiffening import STIFFEN_DEFAULTS, check_stiffening, stiffen_stage
 from .cycles import CycleRecorder
 
 GRAIN_KEYS = RIGID_GRAIN_KEYS  # keys of [box_test.clumps]: a rigid grain (its shape, member radius, mass model)
@@ -87,9 +88,9 @@ DEFAULTS = {
     "base": "one_sided",          # "one_sided" or "two_sided" (grains may pass through; counted)
     "sleeper_surface": "flat",    # "flat": a smooth rigid box; "spheres": the thesis's clump of 2280 steel spheres
     "sleeper_member_radius": 0.005,  # [m] of the "spheres" surface (`sleeper_members`)
-    # preparation at reduced stiffness, then a stiffening stage (law "linear"; docs/box_test.md "Full stiffness")
-    "prep_stiffness_factor": 1.0,  # pour .. settle with every material's young times this [-]; 1: no stiffen stage
-    "stiffen_time": 0.2,           # the stiffness grows geometrically to the materials' over this time [s]
+    # preparation at reduced stiffness, then a stiffening stage (law "linear"; docs/box_test.md "Full stiffness";
+    # `pdem.scenes.common.stiffening`)
+    **STIFFEN_DEFAULTS,
 }
 CHOICES = {"cut": ("top", "center"), "sleeper_placement": ("cut", "on_top"), "refill": ("beside", "whole"),
            "waveform": ("haversine", "half_sine"), "base": ("one_sided", "two_sided"),
@@ -122,12 +123,8 @@ def box_settings(doc):
         raise InputError(f"box_test.sleeper_placement = 'cut' with cut = 'center': the sleeper starts overlapping "
                          f"spheres by up to their radius (Yade's immediate loading), which the runaway guard stops at "
                          f"simulation.max_overlap_ratio = {limit!r}; set it to 1.0, or sleeper_placement = 'on_top'")
-    c["prep_stiffness_factor"] = number("box_test.prep_stiffness_factor", c["prep_stiffness_factor"], 0.0, 1.0,
-                                        lo_open=True, allow="in (0, 1]")
-    if c["prep_stiffness_factor"] != 1.0 and doc.get("simulation", {}).get("law", "linear") != "linear":
-        raise InputError(f"box_test.prep_stiffness_factor = {c['prep_stiffness_factor']!r}: the stiffening stage "
-                         "needs simulation.law = 'linear' (its stiffness is proportional to young); use 1.0")
-    for k in ("cut_height", "height", "frequency", "stiffen_time", "sleeper_member_radius"):
+    check_stiffening("box_test", c, doc)
+    for k in ("cut_height", "height", "frequency", "sleeper_member_radius"):
         c[k] = number(f"box_test.{k}", c[k], 0.0, lo_open=True)
     c["sleeper_members"] = (sleeper_members(c["sleeper_size"], c["sleeper_member_radius"])
                             if c["sleeper_surface"] == "spheres" else None)
@@ -344,7 +341,7 @@ class BoxTestRun(PreparedRun):
                   vibrate_stage(self, self.stage_scene, self.trim),
                   settle_stage(self, self.stage_scene).then(close=None if soft else self.first_load_row)]
         if soft:
-            stages.append(self.stiffen_stage())
+            stages.append(stiffen_stage(self, self.stage_scene, after=self.first_load_row))
         stages.append(Stage("load", lambda tables: self.stage_scene(tables, loaded=True), self.load_program,
                             open=self.open_load, close=lambda sim: self.stage_done(sim, "load"),
                             record=self.stage_record, length=(self.c["cycles"] / self.c["frequency"], False)))
@@ -434,53 +431,6 @@ class BoxTestRun(PreparedRun):
         h2 = self.c["height"]
         tables, removed = cut(self.c, tables, h2)
         return tables, f"removed {removed} spheres above {h2} m"
-
-    # ------------------------------------------------------------------ stiffening
-    def stiffen_stage(self):
-        """``stiffen`` (after a preparation at ``prep_stiffness_factor``): `stiffen_program`."""
-        c = self.c
-
-        def prepare(sim, scene, mid_stage):  # the scale reached so far (the carried contacts hold it already)
-            sim.set_stiffness_scale(self.state["stiffness_scale"] / c["prep_stiffness_factor"])
-            sim.moving_boundaries = True  # stiffening raises the elastic energy: no energy-growth check
-
-        note = f"stiffness x {c['prep_stiffness_factor']:g} -> x 1 over {c['stiffen_time']:g} s; settle"
-        return Stage("stiffen", self.stage_scene, self.stiffen_program, open=lambda tables: (tables, note),
-                     prepare=prepare, close=self.close_stiffen, record=self.stage_record)
-
-    def stiffen_program(self, sim, scene):
-        """Every ``check_every`` steps the stiffness scale s = f^(1 − t'/T) (t' since the stage
-        started, f = ``prep_stiffness_factor``, T = ``stiffen_time``; 1 from t' = T on): new contacts
-        are made with it, existing ones have their k_n, k_s times s/s_before (their tangential
-        force stays), and Δt follows at once. Then settle as a settle stage does."""
-        c, state, run = self.c, self.state, self.run_cfg
-        t0, f, duration, every = state["stage_t0"], c["prep_stiffness_factor"], c["stiffen_time"], c["check_every"]
-        t_end = t0 + duration + c["settle_max_time"]
-
-        def on_step(sim):
-            if sim.step % every == 0 and state["stiffness_scale"] < 1.0:
-                s = 1.0 if sim.time - t0 >= duration else f ** (1.0 - (sim.time - t0) / duration)
-                sim.set_stiffness_scale(s / f, s / state["stiffness_scale"])
-                state["stiffness_scale"] = s
-                sim.update_dt(force=True)
-            if run["output_every"] and sim.step % run["output_every"] == 0:
-                self.prep.append(self.prep_sample(sim))
-            self.snapshot(sim)
-
-        def settled(sim):
-            return sim.time >= t_end or (state["stiffness_scale"] == 1.0
-                                         and observables.unbalanced_force(sim) < c["settle_ratio"])
-
-        return on_step, settled, every, t_end
-
-    def close_stiffen(self, sim):
-        self.stage_done(sim, "stiffen")
-        self.first_load_row(sim)
-        ratio = observables.unbalanced_force(sim)
-        if self.state["stiffness_scale"] != 1.0 or ratio >= self.c["settle_ratio"]:
-            self.loop.log(f"warning: stage stiffen reached stiffen_time + settle_max_time with stiffness scale "
-                          f"{self.state['stiffness_scale']:g} and unbalanced force ratio {ratio:.3g}; going on")
-        self.prep.append(self.prep_sample(sim))
 
     # ------------------------------------------------------------------ cyclic loading
     def open_load(self, tables):

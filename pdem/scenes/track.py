@@ -50,6 +50,10 @@ the thesis's order for the track (compact the bed, then cut it and place the sle
                 checkpoint is copied to ``prepared.h5``: the prepared bed, which any number of
                 load programs start from ([traffic] prepared = that file or its run directory)
                 without preparing again.
+   ``stiffen``  (only with ``prep_stiffness_factor`` f < 1, law linear: stages 1-4 then ran with
+                every material's young times f) the stiffness raised to the materials' over
+                ``stiffen_time`` [s], settled (`pdem.scenes.common.stiffening`, the box test's
+                stage); its end-of-stage checkpoint is then the prepared bed.
 5. ``traffic``  (only with a ``[traffic]`` table) ``program = "axles"``: `pdem.boundaries.loads.AxleTrain`
                 (``passages`` trains of axles at positions ``axles`` [m] behind the first,
                 ``axle_load`` [N], ``speed`` [m/s]; each sleeper carries the time-shifted
@@ -85,7 +89,7 @@ from ..build.config import check_keys, run_settings, scene_from_dict
 from ..driver import observables
 from ..driver.fragments import FragmentRecorder
 from ..driver.results import write_root_attrs
-from ..driver.stages import Stage, empty_tables, nothing
+from ..driver.stages import Stage, empty_tables, nothing, scaled_stiffness
 from ..errors import InputError
 from ..io.checkpoint import CheckpointError, read_checkpoint
 from ..boundaries.loads import ETA_ZERO, AxleTrain, Haversine, SleeperLoad
@@ -96,6 +100,7 @@ from .common.grains import grain_reach, grain_spec
 from ..bodies.boxes import principal_inertia
 from .common.preparation import PREPARATION_DEFAULTS, PreparedRun, add_cloud, check_preparation, \
     pour_stage, refill_stage, remove_where, settle_stage, vibrate_stage
+from .common.stiffening import STIFFEN_DEFAULTS, check_stiffening, soft, stiffen_stage
 from .track_record import PassageTracker, TrackWriter, end_heights, sleeper_sample, tilts, write_force_record
 
 PREPARATION = ("pour", "vibrate", "settle", "refill")  # the pipeline's stages: compacted before the cut
@@ -117,6 +122,8 @@ DEFAULTS = {
     "ballast_material": "ballast", "wall_material": "steel", "base_material": "rubber",
     "sleeper_material": "concrete",
     **PREPARATION_DEFAULTS,
+    # full stiffness: prepared at young x prep_stiffness_factor, then `stiffen` (`pdem.scenes.common.stiffening`)
+    **STIFFEN_DEFAULTS,
 }
 OPTIONAL = {"sleeper_mass", "sleeper_blocked", "sleeper_rotation", "sleeper_inertia",
             "periodic",  # periodic: no ends along x (`periodic_settings`)
@@ -170,6 +177,7 @@ def track_settings(doc):
     check_preparation("track", c)
     c["grain"] = clump_settings(doc, given)
     c["bond_boost"] = bond_boost_settings(c, given)
+    check_stiffening("track", c, doc)
     c["sleepers"] = number("track.sleepers", c["sleepers"], 1, integer=True)
     for k in ("spacing", "gauge", "rail_head_width", "rail_foot_width", "bed_depth", "slope"):
         c[k] = number(f"track.{k}", c[k], 0.0, lo_open=True)
@@ -510,14 +518,17 @@ def slope_facets(c):
 
 
 # ---------------------------------------------------------------------------- stage scenes
-def stage_scene(doc, c, tables, sleepers=True, loads=None, centres=None, mass=None, rails=True):
+def stage_scene(doc, c, tables, sleepers=True, loads=None, centres=None, mass=None, rails=True, stiffness=1.0):
     """The `Scene` of a stage holding the spheres of ``tables``: the file's materials and
     settings, the subgrade, end and side walls, and if ``sleepers`` (from ``refill`` on) the
     slope facets and the sleepers (at ``centres`` if given; loaded by ``loads`` in ``traffic``;
     each of ``mass`` [kg], default the track's ``body_mass``; turning sleepers with the inertia
     of `sleeper_inertia`, the rails' point masses in it if ``rails``, and the load at the mean
-    of their rail seats)."""
+    of their rail seats). Every material's stiffness times ``stiffness`` (``prep_stiffness_factor``
+    before ``traffic``)."""
     base = {k: v for k, v in doc.items() if k in ("simulation", "materials")}
+    if stiffness != 1.0:
+        base["materials"] = scaled_stiffness(base["materials"], stiffness)
     base["simulation"] = {"slab_axis": "x", **base.get("simulation", {}), "allow_initial_overlap": True}
     g = profile(c)
     if c.get("periodic"):  # no ends: periodic over [0, L] instead of the end walls
@@ -617,7 +628,8 @@ class TrackRun(PreparedRun):
         self.rebuilds0 = int(self.meta.get("n_rebuilds", 0)) if self.meta else 0
 
     def stage_list(self):
-        """`PREPARATION` (compacted before the cut; the prepared bed saved after it), then
+        """`PREPARATION` (compacted before the cut), ``stiffen`` if prepared soft
+        (``prep_stiffness_factor`` < 1; the prepared bed saved after the last of these), then
         ``traffic`` if a [traffic] table is given."""
         bed = self.bed_scene
         pour = pour_stage(self, bed, self.pour, at_rest=self.bodies_settled)
@@ -625,8 +637,10 @@ class TrackRun(PreparedRun):
         stages = [pour.then(prepare=self.boost_bonds) if boost else pour,
                   vibrate_stage(self, bed),
                   settle_stage(self, bed, at_rest=self.bodies_settled),
-                  replace(refill_stage(self, self.stage_scene, self.refill, at_rest=self.bodies_settled),
-                          saved=self.save_prepared_bed)]
+                  refill_stage(self, self.stage_scene, self.refill, at_rest=self.bodies_settled)]
+        if soft(self.c):  # prepared soft: brought to the materials' stiffness before the traffic
+            stages.append(stiffen_stage(self, self.stage_scene, at_rest=self.bodies_settled))
+        stages[-1] = replace(stages[-1], saved=self.save_prepared_bed)
         if self.t is not None:
             stages.append(Stage("traffic", self.traffic_scene, self.load_program, open=self.open_traffic,
                                 prepare=self.release_bonds if boost else nothing,
@@ -646,7 +660,10 @@ class TrackRun(PreparedRun):
             self.loop.log(f"bond strengths returned (/ {self.c['bond_boost']:g}) at t = {sim.time:.4g} s")
 
     def initial_state(self):
-        return {"traffic_start": None, "tracker": None, "prepared_from": None, "forces": [], "bonds": []}
+        state = {"traffic_start": None, "tracker": None, "prepared_from": None, "forces": [], "bonds": []}
+        if soft(self.c):
+            state["stiffness_scale"] = self.c["prep_stiffness_factor"]
+        return state
 
     def checkpoint_state(self):
         return {**self.state, "tracker": self.tracker.state() if self.tracker else None}
@@ -666,7 +683,7 @@ class TrackRun(PreparedRun):
         except CheckpointError as exc:
             raise InputError(f"traffic.prepared = {self.t['prepared']!r}: {exc}") from None
         state = meta.get(self.NAME)
-        if not state or state.get("stage") != STAGES.index("traffic") or state.get("started"):
+        if not state or state.get("stage") != self.STAGES.index("traffic") or state.get("started"):
             raise InputError(f"traffic.prepared = {self.t['prepared']!r}: not a prepared bed of a track scene (the "
                              "checkpoint at the end of its preparation)")
         diff = same_preparation(tomllib.loads(meta["scene_file"]), self.doc)
@@ -718,12 +735,14 @@ class TrackRun(PreparedRun):
                         "sleepers and the slope facets")
 
     def bed_scene(self, tables):
-        """The scene before the cut: no sleepers yet."""
-        return stage_scene(self.doc, self.c, tables, sleepers=False)
+        """The scene before the cut: no sleepers yet (at the preparation's stiffness)."""
+        return stage_scene(self.doc, self.c, tables, sleepers=False, stiffness=self.c["prep_stiffness_factor"])
 
     def stage_scene(self, tables, loads=None):
+        """The scene with the sleepers, at the preparation's stiffness (refill, stiffen)."""
         centres = tables["boxes"]["center"] if "boxes" in tables else None
-        return stage_scene(self.doc, self.c, tables, loads=loads, centres=centres)
+        return stage_scene(self.doc, self.c, tables, loads=loads, centres=centres,
+                           stiffness=self.c["prep_stiffness_factor"])
 
     def traffic_scene(self, tables):
         loads = traffic_loads(self.c, self.t, self.state["traffic_start"])[0]
@@ -952,7 +971,8 @@ class TrackRun(PreparedRun):
         traffic = self.t is not None and (self.out / "results.h5").exists()
         super().finish(sim, wall_s, summary="track", title="track section", about=about,
                        stage_columns=[("sleeper_z", "sleeper centre z [m]", ".4f"), ("balance", "balance", ".3f")],
-                       preparation=None if prepared else {"stages": list(PREPARATION), "body": "sleeper centre"},
+                       preparation=None if prepared else {"stages": list(self.STAGES[:len(PREPARATION) + soft(c)]),
+                                                        "body": "sleeper centre"},
                        notes=balance_lines(self.write_scaling(sim, wall_s))
                        + (["", f"traffic: {self.traffic_text()}"] if traffic else []),
                        traffic=traffic)
