@@ -24,10 +24,11 @@ import pytest
 
 from pdem.format.read import read_box_test
 from pdem_cli import needs_mpiexec, pdem_cmd, run_pdem
+from run_files import run_differences
 from factories import BOX_MATERIALS
 from pdem.scenes.common.preparation import cloud, cloud_count
 from pdem.driver.stages import remove_above
-from pdem.io.checkpoint import list_checkpoints, read_checkpoint
+from pdem.io.checkpoint import list_checkpoints
 from pdem.build.scene import Scene
 from pdem.scenes.box_test import DEFAULTS, sleeper_geometry
 
@@ -141,18 +142,10 @@ def groups(path):
 
 
 def assert_same_run(ref, got):
-    for name in ("results.h5", "preparation.h5", "snapshots.h5"):
-        a, b = groups(ref / name), groups(got / name)
-        assert sorted(a) == sorted(b), name
-        for g in a:
-            assert sorted(a[g]) == sorted(b[g]), f"{name}:{g}"
-            for c in a[g]:
-                assert np.array_equal(a[g][c], b[g][c], equal_nan=True), f"{got}/{name}:/{g}/{c} differs"
-    last = lambda d: read_checkpoint(list_checkpoints(d / "checkpoints")[-1][1])[0]  # noqa: E731
-    ta, tb = last(ref), last(got)
-    for c in ta["particles"]:
-        assert np.array_equal(ta["particles"][c], tb["particles"][c]), f"{got}: particles/{c}"
-    assert np.array_equal(ta["boxes"]["center"], tb["boxes"]["center"])
+    """Every dataset of the results, preparation and snapshot files (the snapshots' blocks nest
+    groups) and the last checkpoint's bodies, bit for bit (`run_files.run_differences`)."""
+    bad = run_differences(ref, got, files=("results.h5", "preparation.h5", "snapshots.h5"))
+    assert bad == [], f"{got}: {bad}"
 
 
 @pytest.fixture(scope="module")
