@@ -61,11 +61,10 @@ from ..boundaries.loads import HalfSine, Haversine
 from ..build.validate import number
 from .common.preparation import PREPARATION_DEFAULTS, PreparedRun, add_cloud, check_preparation, \
     pour_stage, refill_stage, remove_where, settle_stage, vibrate_stage
-from .common.grains import RIGID_GRAIN_KEYS, grain_spec
+from .common.grains import grain_spec
 from .common.stiffening import STIFFEN_DEFAULTS, check_stiffening, stiffen_stage
 from .cycles import CycleRecorder
 
-GRAIN_KEYS = RIGID_GRAIN_KEYS  # keys of [box_test.clumps]: a rigid grain (its shape, member radius, mass model)
 # [box_test] keys and defaults (SPEC.md 2.3, thesis table 5.1; stiffness is in [materials]);
 # the preparation pipeline's keys (radius, seed, settle_*, vibration_* ...) are
 # `pdem.scenes.common.preparation.PREPARATION_DEFAULTS`

@@ -64,7 +64,7 @@ from ..build.generators import sphere_radii
 from ..boundaries.loads import Haversine
 from ..build.validate import number
 from .common.bounds import plausible
-from .common.grains import grain_spec as common_grain_spec
+from .common.grains import grain_reach, grain_spec as common_grain_spec
 from .common.preparation import PREPARATION_DEFAULTS, PREPARATION_STAGES, PreparedRun, check_preparation, \
     pour_stage, refill_stage, settle_stage, vibrate_stage
 
@@ -226,8 +226,7 @@ def grain_fill(c, seed):
 
     g = c["grain"]
     pos, radius = g["members"], g["member_radii"]
-    reach = float(np.max(np.sqrt(np.einsum("ij,ij->i", pos, pos)) + radius))
-    sites = lattice_sites(c, reach, 0.0, fill_volume(c), float(np.sum(4.0 / 3.0 * pi * radius**3)))
+    sites = lattice_sites(c, grain_reach(g), 0.0, fill_volume(c), float(np.sum(4.0 / 3.0 * pi * radius**3)))
     rot = random_rotations(len(sites), np.random.default_rng(seed))
     return [(s + pos @ m.T, radius.copy()) for s, m in zip(sites, rot)]
 

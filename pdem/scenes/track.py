@@ -754,15 +754,19 @@ class TrackRun(PreparedRun):
         """The sleepers at rest: on every one, |net force| / weight and |velocity| / sqrt(g r)
         below settle_ratio (a sleeper dropped into its slot bounces on the bed at ~10 Hz, which
         the spheres' ratio does not see)."""
-        v_ref = (float(np.linalg.norm(sim.gravity)) * ballast_radius(self.c)) ** 0.5
-        f, v = observables.box_rest(sim, v_ref)
+        f, v = self.sleeper_rest(sim)
         return f < self.c["settle_ratio"] and v < self.c["settle_ratio"]
+
+    def sleeper_rest(self, sim):
+        """(largest |net force| / weight, largest |velocity| / sqrt(g r)) of the sleepers
+        (`pdem.driver.observables.box_rest`, r the ballast's nominal radius)."""
+        return observables.box_rest(sim, (float(np.linalg.norm(sim.gravity)) * ballast_radius(self.c)) ** 0.5)
 
     def bodies_note(self, sim):
         if sim.boxes is None:
             return ""
         base = sim.boxes.center[:, 2] - sim.boxes.half[:, 2]
-        f, v = observables.box_rest(sim, (float(np.linalg.norm(sim.gravity)) * ballast_radius(self.c)) ** 0.5)
+        f, v = self.sleeper_rest(sim)
         return (f", sleeper centre z {1e3 * self.sleeper_z(sim):.1f} mm (mean; bottoms {1e3 * base.min():.1f} .. "
                 f"{1e3 * base.max():.1f} mm; net force/weight {f:.2g}, "
                 f"speed/sqrt(gr) {v:.2g})")

@@ -48,6 +48,7 @@ from math import cos, pi, sin
 import numpy as np
 
 from .bounds import PREPARATION_BOUNDS, plausible
+from .grains import grain_reach
 from ...driver import observables
 from ...driver.snapshots import write_snapshot
 from ...driver.results import series_writer
@@ -142,7 +143,7 @@ def add_grain_cloud(tables, doc, c, lo_xy, hi_xy, z0, volume, seed, first_gid, w
     g = c["grain"]
     pos, radius = g["members"], g["member_radii"]
     n = max(int(np.ceil(c["overfill"] * c["packing_fraction"] * volume / np.sum(4.0 / 3.0 * pi * radius**3))), 1)
-    reach = float(np.max(np.sqrt(np.einsum("ij,ij->i", pos, pos)) + radius))
+    reach = grain_reach(g)
     top = lattice_top(lo_xy, hi_xy, z0, n, 2.0 * reach * 1.05)  # grain_cloud's spacing (gap 0.05)
     if top is None:
         raise InputError(f"{where[0]}.clumps: grains of diameter {2 * reach:.4g} m do not fit {where[1]}")
