@@ -228,6 +228,9 @@ def analyse_track(record: TrackRecord, hanging_gap: float = HANGING_GAP) -> Trac
                      max_end_gap=np.maximum(p["gap_lo"], p["gap_hi"]).max(axis=1))
     if "load_share" in p:
         table.update(max_load_share=p["load_share"].max(axis=1))
+    if "load_work" in p:  # the energy ledger: what the bed dissipated is the work not stored
+        table.update(load_work=p["load_work"], energy_change=p["energy_change"],
+                     dissipated=p["load_work"] - p["energy_change"])
     forces = {}
     for label, rec in record.forces.items():
         forces[label] = {kind: force_statistics(getattr(rec, kind))
@@ -260,12 +263,15 @@ PASSAGE_COLUMNS = (  # name, header, scale SI -> shown, units shown, format
     ("max_tilt_y", "|tilt_y|max", MRAD, "mrad", "{:11.4f}"),
     ("max_end_gap", "endgap_max", MM, "mm", "{:10.4f}"),
     ("max_load_share", "share_max", 1.0, "-", "{:9.4f}"),
+    ("load_work", "W_load", 1.0, "J", "{:10.4g}"),
+    ("energy_change", "dE", 1.0, "J", "{:10.4g}"),
+    ("dissipated", "W-dE", 1.0, "J", "{:10.4g}"),
 )
 SI_UNITS = {"passage": "-", "t_start": "s", "t_end": "s", "mean_permanent": "m",
             "min_permanent": "m", "max_permanent": "m", "increment": "m", "differential": "m",
             "mean_peak": "m", "max_peak": "m", "mean_gap": "m", "max_gap": "m", "hanging": "-",
             "mean_load_peak": "N", "max_load_peak": "N", "max_tilt_x": "rad", "max_tilt_y": "rad",
-            "max_end_gap": "m", "max_load_share": "-"}
+            "max_end_gap": "m", "max_load_share": "-", "load_work": "J", "energy_change": "J", "dissipated": "J"}
 TURNING = ("settlement_lo", "settlement_hi", "tilt_x", "tilt_y", "gap_lo", "gap_hi", "load_share")
 
 
@@ -287,7 +293,9 @@ def track_lines(result: TrackAnalysis) -> list[str]:
         + (f"; hanging = sleepers with gap > {result.hanging_gap * MM:g} mm" if result.has_gap
            else "; no gap data")
         + ("; Fpeak the largest load of the rail (a beam) on a sleeper in the passage"
-           if "load_peak" in p else ""),
+           if "load_peak" in p else "")
+        + ("; W_load the loads' work on the sleepers in the passage, dE the change of the mechanical "
+           "energy of sleepers and ballast, W-dE what the bed dissipated" if "load_work" in p else ""),
         "",
         " ".join(h.rjust(w) for (_, h, *_), w in zip(columns, widths)),
         " ".join(f"[{u}]".rjust(w) for (_, _, _, u, _), w in zip(columns, widths)),

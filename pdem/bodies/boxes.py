@@ -189,6 +189,7 @@ class Boxes:
         self.contact_force = np.zeros((0, 3))
         self.contact_torque = np.zeros((0, 3))
         self.load_force = np.zeros((0, 3))
+        self.load_torque = np.zeros((0, 3))  # the loads' moment of the last step (rotating boxes)
         self.members = BoxMembers()
 
     center = property(lambda self: self.kernel_f[:, 0:3])
@@ -267,6 +268,7 @@ class Boxes:
         self.contact_force = np.zeros((len(self), 3))
         self.contact_torque = np.zeros((len(self), 3))
         self.load_force = np.zeros((len(self), 3))
+        self.load_torque = np.zeros((len(self), 3))
         if members is not None:
             self.members.add(label, len(self) - 1, members, member_radius, material, h)
             self.place_members()
@@ -314,11 +316,39 @@ class Boxes:
         moved = leapfrog_boxes(self.kernel_f, self.blocked, self.damping, self.mass, self.contact_force,
                                self.load_force, np.asarray(gravity, np.float64), dt)
         if self.oriented_count():
-            torque = self.contact_torque + self.load_moment(t)
+            self.load_torque = self.load_moment(t)
+            torque = self.contact_torque + self.load_torque
             moved += rotate_boxes(self.kernel_f, self.blocked, self.damping, self.ori, self.angmom, self.inertia,
                                   self.axes, torque, dt)
         self.place_members()
         return moved
+
+    def load_step(self, dt):
+        """([n, 6] load, [n, 6] displacement) of the last step of length ``dt`` [s], per box: the
+        load [N] and its moment [N·m] at the start of the step (global axes; the moment on a
+        rotating box only), and the step's displacement Δt v [m] and turn Δt ω [rad]; blocked
+        components 0. Their products summed give the loads' work (`pdem.scenes.track_record`)."""
+        free = ((self.blocked[:, None] >> np.arange(6)) & 1) == 0
+        free[:, 3:] &= self.rotating[:, None]
+        load = np.where(free, np.concatenate([self.load_force, self.load_torque], axis=1), 0.0)
+        return load, np.where(free, dt * np.concatenate([self.velocity, self.angvel], axis=1), 0.0)
+
+    def energy(self, gravity, dt):
+        """Mechanical energy [J] of the boxes at the positions of the last force computation,
+        as `pdem.checks.diagnostics.energy` takes the spheres': kinetic ½ m v_{n−½}·v_{n+½} =
+        ½ m v² − (Δt/2) m a·v (a = (F_contact + F_load)/m + g: exact without damping), potential
+        −m g·(x − Δt v), and ½ ω·L of the rotating boxes (not synchronised); summed in index
+        order (replicated: the same on every rank). ``dt`` [s]: the last step's."""
+        g = np.asarray(gravity, float)
+        e = 0.0
+        for b in range(len(self)):
+            m, v = float(self.mass[b]), self.velocity[b]
+            a = np.where((self.blocked[b] >> np.arange(3)) & 1, 0.0,
+                         (self.contact_force[b] + self.load_force[b]) / m + g)
+            e += 0.5 * m * float(v @ v) - 0.5 * dt * m * float(a @ v) - m * float((self.center[b] - dt * v) @ g)
+            if self.rotating[b]:
+                e += 0.5 * float(self.angvel[b] @ self.angmom[b])
+        return e
 
     def spec(self):
         """JSON-able description (initial state as declared)."""

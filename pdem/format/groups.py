@@ -21,7 +21,7 @@ from .read import (ResultFileError, Results, _plain, checked_units, open_results
                    results_file)
 from .schema import (BLAST, BLAST_ATTR_UNITS, BLAST_SERIES, FORCE_UNITS, FORCES,
                      FRAGMENT_REQUIRED, FRAGMENT_UNITS, FRAGMENTS, FRAGMENTS_ATTR_UNITS,
-                     PASSAGE_REQUIRED, PASSAGE_UNITS, PASSAGES, TRACK, TRACK_UNITS)
+                     PASSAGE_REQUIRED, PASSAGE_SCALARS, PASSAGE_UNITS, PASSAGES, TRACK, TRACK_UNITS)
 
 @dataclass(frozen=True)
 class FragmentRecord:
@@ -202,8 +202,7 @@ def read_track(path) -> TrackRecord:
                 raise ResultFileError(path, f"/{TRACK}/{name} has shape {shape}, expected "
                                             f"({n_samples}, {n_sleepers}) = (samples in "
                                             f"/series, sleepers)")
-        ndims = {name: 1 if name in ("passage", "t_start", "t_end") else 2
-                 for name in PASSAGE_UNITS}
+        ndims = {name: 1 if name in PASSAGE_SCALARS else 2 for name in PASSAGE_UNITS}
         passages = _datasets(path, f[PASSAGES], f"/{PASSAGES}", PASSAGE_REQUIRED,
                              PASSAGE_UNITS, ndims=ndims)
         n_passages = len(passages["passage"])

@@ -282,9 +282,13 @@ PASSAGE_UNITS = {"passage": "-", "t_start": "s", "t_end": "s", "settlement_peak"
                  # turning sleepers (track.sleeper_rotation): at the end of the passage, per end of the
                  # sleeper body along its own y axis (lo, hi), and the beam's load share in the passage
                  "settlement_lo": "m", "settlement_hi": "m", "tilt_x": "rad", "tilt_y": "rad",
-                 "gap_lo": "m", "gap_hi": "m", "load_share": "-"}
+                 "gap_lo": "m", "gap_hi": "m", "load_share": "-",
+                 # the passage's energy ledger (one value per passage): the work of the loads on the
+                 # sleepers and the change of the mechanical energy of sleepers and ballast
+                 "load_work": "J", "energy_change": "J"}
 PASSAGE_OPTIONAL = ("gap", "load_peak", "settlement_lo", "settlement_hi", "tilt_x", "tilt_y", "gap_lo", "gap_hi",
-                    "load_share")
+                    "load_share", "load_work", "energy_change")
+PASSAGE_SCALARS = ("passage", "t_start", "t_end", "load_work", "energy_change")  # one value per passage
 PASSAGE_REQUIRED = ("passage", "t_start", "t_end", "settlement_peak", "settlement_permanent")
 
 FORCES = "forces"
@@ -459,10 +463,11 @@ def append_passages(target, t_start, t_end, settlement_peak, settlement_permanen
         Void under each sleeper; either always given or never.
     load_peak : array [n, n_sleepers] (or [n_sleepers]) [N], optional
         Largest rail load on each sleeper in the passage; either always given or never.
-    **more : array [n, n_sleepers] (or [n_sleepers])
+    **more : array [n, n_sleepers] (or [n_sleepers]), or [n] (or a float) for `PASSAGE_SCALARS`
         Any other table of `PASSAGE_OPTIONAL` (turning sleepers: ``settlement_lo``,
         ``settlement_hi`` [m], ``tilt_x``, ``tilt_y`` [rad], ``gap_lo``, ``gap_hi`` [m],
-        ``load_share`` [-]); each either always given or never.
+        ``load_share`` [-]; the energy ledger: ``load_work``, ``energy_change`` [J]); each
+        either always given or never.
 
     Returns
     -------
@@ -487,7 +492,8 @@ def append_passages(target, t_start, t_end, settlement_peak, settlement_permanen
                 raise ValueError(f"/{PASSAGES}/{name}: not a passage table ({', '.join(PASSAGE_OPTIONAL)})")
             if value is not None:
                 tables[name] = value
-        rows = {k: _rows(v, k, n_sleepers) for k, v in tables.items()}
+        rows = {k: np.atleast_1d(np.asarray(v, float)) if k in PASSAGE_SCALARS else _rows(v, k, n_sleepers)
+                for k, v in tables.items()}
         if any(len(v) != len(t0) for v in rows.values()):
             raise ValueError("passage tables must have one row per t_start")
         g = f.get(PASSAGES)
@@ -497,8 +503,8 @@ def append_passages(target, t_start, t_end, settlement_peak, settlement_permanen
                 ds = g.create_dataset(name, shape=(0,), maxshape=(None,), dtype=np.float64)
                 ds.attrs["units"] = PASSAGE_UNITS[name]
             for name in rows:
-                ds = g.create_dataset(name, shape=(0, n_sleepers), maxshape=(None, n_sleepers),
-                                      dtype=np.float64)
+                shape = (0,) if name in PASSAGE_SCALARS else (0, n_sleepers)
+                ds = g.create_dataset(name, shape=shape, maxshape=(None, *shape[1:]), dtype=np.float64)
                 ds.attrs["units"] = PASSAGE_UNITS[name]
         elif any((name in g) != (name in rows) for name in PASSAGE_OPTIONAL):
             raise ValueError(f"{', '.join(PASSAGE_OPTIONAL)} must each be given for every passage or for none")

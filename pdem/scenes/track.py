@@ -62,12 +62,15 @@ the thesis's order for the track (compact the bed, then cut it and place the sle
                 ``rail_seat_stiffness`` k_d [N/m] or given as ``characteristic_length`` [m]);
                 ``program = "haversine"``: ``cycles`` cycles ``f_min`` <-> ``f_max`` [N per rail
                 seat] at ``frequency`` [Hz] on every sleeper, one passage per cycle (the
-                thesis's 0 -> F -> 0).
+                thesis's 0 -> F -> 0). ``damping`` [-]: Cundall's λ_D of the ballast and the
+                sleepers in this stage (default: ``simulation.damping``, the preparation's; a
+                prepared bed takes any).
 
 Results (`pdem.format.schema`, kind "track"): ``results.h5`` with /series (`TRACK_SERIES`), /track
 (settlement and ballast force of every sleeper per sample), /passages (peak and permanent
 settlement, gap under each sleeper; with the beam the peak load on each sleeper; turning sleepers:
-settlement of each end, tilts, the void under each end third, with the beam the load share),
+settlement of each end, tilts, the void under each end third, with the beam the load share;
+the energy ledger: the loads' work on the sleepers and the change of the mechanical energy),
 /forces/peak_passage_<p> and end_passage_<p> (contact force distributions, passages 1, every
 ``forces_every``-th and the last); with breakable grains /fragments/prepared (when the traffic
 starts) and /fragments/passage_<p> (the fragments and the intact bonds, `grading_record`); ``preparation.h5`` and
@@ -101,7 +104,8 @@ from ..bodies.boxes import principal_inertia
 from .common.preparation import PREPARATION_DEFAULTS, PreparedRun, add_cloud, check_preparation, \
     pour_stage, refill_stage, remove_where, settle_stage, vibrate_stage
 from .common.stiffening import STIFFEN_DEFAULTS, check_stiffening, soft, stiffen_stage
-from .track_record import PassageTracker, TrackWriter, end_heights, sleeper_sample, tilts, write_force_record
+from .track_record import (PassageTracker, TrackWriter, end_heights, mechanical_energy, sleeper_sample, tilts,
+                           write_force_record)
 
 PREPARATION = ("pour", "vibrate", "settle", "refill")  # the pipeline's stages: compacted before the cut
 STAGES = PREPARATION + ("traffic",)
@@ -144,7 +148,7 @@ TRAFFIC_DEFAULTS = {
     # program "haversine" (thesis ch. 6: 0 -> F -> 0; table 6.1: F = 200 kN)
     "f_min": 0.0, "f_max": 200e3, "frequency": 1.0, "cycles": 1,
 }
-TRAFFIC_OPTIONAL = {"x_from", "x_to", "characteristic_length", "rail_length"}
+TRAFFIC_OPTIONAL = {"x_from", "x_to", "characteristic_length", "rail_length", "damping"}
 AXLE_KEYS = {"axle_load", "axles", "speed", "passages", "rest_time", "rail_bending_stiffness", "rail_seat_stiffness",
              "x_from", "x_to", "characteristic_length", "rail_model", "rail_pad_stiffness", "rail_length"}
 BEAM_KEYS = {"rail_pad_stiffness", "rail_length"}  # rail_model "beam" only
@@ -311,6 +315,8 @@ def traffic_settings(doc, c):
         raise InputError(f"traffic.prepared = {t['prepared']!r}: must be the path of a prepared bed (a run "
                          f"directory or its {PREPARED})")
     t["forces_every"] = number("traffic.forces_every", t["forces_every"], 0, integer=True)
+    if "damping" in given:
+        t["damping"] = number("traffic.damping", given["damping"], 0.0, 0.99, allow="in [0, 0.99] (Cundall's lambda_D)")
     x = sleeper_x(c)
     if t["program"] == "haversine":
         t["passages"] = number("traffic.cycles", t["cycles"], 1, integer=True)
@@ -745,9 +751,13 @@ class TrackRun(PreparedRun):
                            stiffness=self.c["prep_stiffness_factor"])
 
     def traffic_scene(self, tables):
+        """The scene with the sleepers under the load program (λ_D ``traffic.damping`` if given)."""
         loads = traffic_loads(self.c, self.t, self.state["traffic_start"])[0]
         centres = tables["boxes"]["center"] if "boxes" in tables else None
-        return stage_scene(self.doc, self.c, tables, loads=loads, centres=centres, mass=self.t.get("body_mass"),
+        doc = self.doc
+        if "damping" in self.t:
+            doc = {**doc, "simulation": {**doc.get("simulation", {}), "damping": self.t["damping"]}}
+        return stage_scene(doc, self.c, tables, loads=loads, centres=centres, mass=self.t.get("body_mass"),
                            rails=self.t.get("rail_model") != "beam")
 
     def bodies_settled(self, sim):
@@ -788,15 +798,16 @@ class TrackRun(PreparedRun):
 
     def traffic_text(self):
         t = self.t
+        damped = f"; damping {t['damping']:g} (traffic.damping)" if "damping" in t else ""
         if t["program"] == "haversine":
             return (f"{t['cycles']} cycle(s) {t['f_min']:g} <-> {t['f_max']:g} N per rail seat at "
-                    f"{t['frequency']:g} Hz on every sleeper")
+                    f"{t['frequency']:g} Hz on every sleeper{damped}")
+        rail = (f"rail-seat shares with L = {t['characteristic_length']:.4f} m" if t["rail_model"] == "share" else
+                f"the rail as a beam (EI {t['rail_bending_stiffness']:.4g} N m^2, {self.c['rail_mass']:g} kg/m, "
+                f"{t['rail_length']:g} m) on pads of {t['rail_pad_stiffness']:.4g} N/m")
         return (f"{t['passages']} passage(s) of {len(t['axles'])} axle(s) of {t['axle_load']:g} N at "
                 f"{t['speed']:g} m/s, axles at {t['axles']} m, from x = {t['x_from']:.3f} to {t['x_to']:.3f} m, "
-                f"rest {t['rest_time']:g} s; " + (
-                    f"rail-seat shares with L = {t['characteristic_length']:.4f} m" if t["rail_model"] == "share" else
-                    f"the rail as a beam (EI {t['rail_bending_stiffness']:.4g} N m^2, {self.c['rail_mass']:g} kg/m, "
-                    f"{t['rail_length']:g} m) on pads of {t['rail_pad_stiffness']:.4g} N/m"))
+                f"rest {t['rest_time']:g} s; {rail}{damped}")
 
     def load_program(self, sim, scene):
         state, run = self.state, self.run_cfg
@@ -843,15 +854,16 @@ class TrackRun(PreparedRun):
             if turning and load is not None and state["load_rest"] is None:
                 state["load_rest"] = load.tolist()  # the first step of the traffic: no wheel on the rails
             events = tr.update(sim.time, s, load)
+            tr.account(sim)
             p = tr.p + 1
             if "peak" in events and recorded(p):
                 self.force_record(f"peak_passage_{p}", sim)
             if "end" in events:
                 gap = observables.box_gaps(sim)
-                row = tr.close(sim.time, s)
+                row = tr.close(sim.time, s, mechanical_energy(sim))
                 w.append(*sleeper_sample(sim, tr))
                 more = self.turning_record(sim, row[4], load) if turning else {}
-                w.passage(row[0], row[1], row[2], row[3], gap, load_peak=row[4], **more)
+                w.passage(row[0], row[1], row[2], row[3], gap, load_peak=row[4], **row[5], **more)
                 if more:
                     self.loop.log(f"passage {p}/{n}: tilt about x {1e3 * more['tilt_x'].min():.3f} .. "
                                   f"{1e3 * more['tilt_x'].max():.3f} mrad, about y {1e3 * more['tilt_y'].min():.3f}"

@@ -6,9 +6,16 @@
   first step at or after its nominal end; its peak instant is the first step at or after the
   nominal peak (the first axle over the middle sleeper, or mid-cycle). With ``loads = True`` (the
   rail as a beam) it also follows the largest load [N, downward] on every sleeper in the
-  passage: the rail's share of the wheels as the beam and the bed distribute it. Plain data,
-  JSON state for checkpoints; fed every step with the replicated sleeper positions (identical on every
-  rank), so every rank takes the same decisions.
+  passage: the rail's share of the wheels as the beam and the bed distribute it. And the
+  passage's energy ledger: the work of the loads on the sleepers [J] and the change of the
+  mechanical energy of sleepers and ballast [J] (`mechanical_energy`) over the passage; their
+  difference is what the bed (damping, friction, the viscous law) dissipated, zero for an
+  elastic undamped bed but for the integrator's error. The work is the leapfrog's own: with
+  the energies at the positions x_n of the force computations, the step from x_k to x_{k+1}
+  does ½ (F_k + F_{k+1})·(x_{k+1} − x_k) (F the load and its moment, x the position and the
+  turn: `Boxes.load_step`), the quantity by which the leapfrog's synchronised energy changes.
+  Plain data, JSON state for checkpoints; fed every step with the replicated sleeper positions
+  (identical on every rank), so every rank takes the same decisions.
 - `TrackWriter` writes ``/series`` (`pdem.format.schema.TRACK_SERIES`) and the per-sleeper rows
   of ``/track`` (settlement [m], ballast force on the sleeper, positive up [N]) together, one
   row of each per sample, and ``/passages`` (peak, permanent settlement and the gap under each
@@ -46,6 +53,9 @@ class PassageTracker:
         self.peak = None
         self.peak_seen = False
         self.load_peak = [0.0] * len(self.reference) if loads else None  # [N] in the open passage
+        self.work = 0.0  # [J] of the loads in the open passage
+        self.energy0 = None  # [J] mechanical energy when the open passage's ledger started
+        self.last_step = None  # (load, displacement) of the step before, as lists (`account`)
 
     @property
     def done(self):
@@ -78,11 +88,27 @@ class PassageTracker:
             events.append("end")
         return events
 
-    def close(self, t, settlement):
+    def account(self, sim):
+        """Feed the energy ledger one step n (load F_n, displacement Δx_n): the work of the step
+        before, ½ (F_{n−1} + F_n)·Δx_{n−1}, summed in a fixed order (collective on the first
+        call: it measures the energy at x_n the ledger starts from)."""
+        load, moved = sim.boxes.load_step(sim.last_dt)
+        if self.energy0 is None:
+            self.energy0 = mechanical_energy(sim)
+        else:
+            before, step = np.asarray(self.last_step[0]), np.asarray(self.last_step[1])
+            for f0, f1, d in zip((0.5 * before).ravel(), (0.5 * load).ravel(), step.ravel()):
+                self.work += (f0 + f1) * d
+        self.last_step = [load.tolist(), moved.tolist()]
+
+    def close(self, t, settlement, energy):
         """The row of the open passage ending at t: (t_start, t_end, peak, permanent, load peak
-        or None); opens the next one."""
+        or None, {"load_work", "energy_change"} [J] with ``energy`` [J] the mechanical energy
+        now); opens the next one."""
+        ledger = {"load_work": self.work, "energy_change": energy - self.energy0}
+        self.work, self.energy0 = 0.0, energy
         row = (self.t_start, float(t), np.array(self.peak), np.asarray(settlement, float).copy(),
-               None if self.load_peak is None else np.array(self.load_peak))
+               None if self.load_peak is None else np.array(self.load_peak), ledger)
         self.p += 1
         self.start(t, settlement)
         if self.load_peak is not None:
@@ -91,7 +117,8 @@ class PassageTracker:
 
     def state(self):
         out = {"ends": self.ends, "peaks": self.peaks, "reference": self.reference, "p": self.p,
-               "t_start": self.t_start, "peak": self.peak, "peak_seen": self.peak_seen}
+               "t_start": self.t_start, "peak": self.peak, "peak_seen": self.peak_seen, "work": self.work,
+               "energy0": self.energy0, "last_step": self.last_step}
         return out if self.load_peak is None else {**out, "load_peak": self.load_peak}
 
     @classmethod
@@ -99,7 +126,16 @@ class PassageTracker:
         tr = cls(state["ends"], state["peaks"], state["reference"], loads="load_peak" in state)
         tr.p, tr.t_start, tr.peak, tr.peak_seen = int(state["p"]), state["t_start"], state["peak"], state["peak_seen"]
         tr.load_peak = state.get("load_peak")
+        # a checkpoint from before the ledger: it starts at the first step after the restart
+        tr.work, tr.energy0, tr.last_step = state.get("work", 0.0), state.get("energy0"), state.get("last_step")
         return tr
+
+
+def mechanical_energy(sim):
+    """Mechanical energy [J] of the ballast (`pdem.checks.diagnostics.energy`'s ``total``: kinetic,
+    rotational, gravitational and elastic, synchronised to the positions) and of the sleepers
+    (`Boxes.energy`) (collective)."""
+    return sim.energy()["total"] + sim.boxes.energy(sim.gravity, sim.last_dt)
 
 
 def sleeper_sample(sim, tracker):

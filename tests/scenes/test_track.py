@@ -152,13 +152,14 @@ def test_passage_tracker_agrees_with_the_analysis_passage_table():
     t = np.arange(0, 3.2, 0.01)
     z = z0 - np.cumsum(rng.normal(0, 1e-4, (len(t), 3)), axis=0) - 1e-3 * np.sin(np.pi * t)[:, None] ** 2
     tr.start(t[0], tr.settlement(z[0]))
+    tr.energy0 = 0.0  # the energy ledger (tested end to end in test_track_energy)
     rows, events = [], []
     for ti, zi in zip(t[1:], z[1:]):
         s = tr.settlement(zi)
         ev = tr.update(ti, s)
         events += [(e, tr.p) for e in ev]
         if "end" in ev:
-            rows.append(tr.close(ti, s))
+            rows.append(tr.close(ti, s, 0.0))
     assert tr.done and len(rows) == 3
     assert [e for e in events if e[0] == "peak"] == [("peak", 0), ("peak", 1), ("peak", 2)]
     t_start = np.array([r[0] for r in rows])

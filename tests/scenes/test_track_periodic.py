@@ -6,10 +6,12 @@ line (axles on the prescribed shares, a rail shorter than the period, `simulatio
 hand, another slab axis).
 
 End to end (slow): the reduced track of `test_track_beam` (half model, 3 sleepers, 0.9 m) with
-periodic ends, prepared once on one rank, then two passages of a bogie on the periodic beam rail:
-on 1 and 2 ranks the same bits; 3 ranks `--steps` to a checkpoint in the first passage gives the
-bodies of the 1-rank run there; a 2-rank run resumed in the middle of passage 2 rewrites the same
-records; every body stays inside the period.
+periodic ends and turning sleepers (`test_track_tilt`: the tilt about y, along the period), all
+three together, prepared once on one rank, then two passages of a bogie on the periodic beam
+rail: on 1 and 2 ranks the same bits; 3 ranks `--steps` to a checkpoint in the first passage
+gives the bodies and the sleepers' turning state of the 1-rank run there; a 2-rank run resumed
+in the middle of passage 2 rewrites the same records; every body stays inside the period and
+the sleepers tilt.
 """
 import copy
 
@@ -25,10 +27,12 @@ from pdem_cli import needs_mpiexec
 from test_track import DOC
 from track_runs import assert_resume_in_passage, assert_same_bodies_on_3_ranks, assert_same_results, prepared_runs
 from test_track_beam import PREPARE, beam_scene
+from test_track_tilt import TURNING
 
 
 def periodic(text):
-    return text.replace("[track]\n", "[track]\nperiodic = true\n", 1)
+    """Periodic ends and turning sleepers."""
+    return text.replace("[track]\n", "[track]\nperiodic = true\n", 1).replace("half = true", TURNING)
 
 
 def doc(traffic=None, simulation=None):
@@ -84,6 +88,7 @@ def test_periodic_track_passages(periodic_runs):
     x = read_checkpoint(ckpts[-1][1])[0]["particles"]["pos"][:, 0]
     assert x.min() >= 0.0 and x.max() < 0.9  # every body inside the period
     assert "x_min" not in (base / "r1" / "summary.txt").read_text()
+    assert np.all(rec.passages["tilt_x"] == 0.0) and np.any(rec.passages["tilt_y"] != 0.0)
 
 
 @needs_mpiexec
@@ -91,6 +96,8 @@ def test_periodic_track_passages(periodic_runs):
 def test_periodic_track_same_bits_on_1_2_3_ranks_and_after_a_restart(periodic_runs):
     base, scene, _, _ = periodic_runs
     a = assert_same_results(base / "r1" / "results.h5", base / "r2" / "results.h5", "1 and 2 ranks")
-    assert "passages/load_peak" in a
-    assert_same_bodies_on_3_ranks(base, scene, 4200)  # the prepared bed is at step 3800: 400 steps of traffic
+    assert "passages/load_peak" in a and "passages/tilt_y" in a
+    start = int(read_checkpoint(base / "bed" / "prepared.h5")[1]["step"])
+    step = min(s for s, _ in list_checkpoints(base / "r1" / "checkpoints") if s >= start + 300)
+    assert_same_bodies_on_3_ranks(base, scene, step, box_columns=("center", "ori", "angmom", "angvel", "rotation"))
     assert_resume_in_passage(base, scene)
