@@ -55,7 +55,7 @@ class PassageTracker:
         self.load_peak = [0.0] * len(self.reference) if loads else None  # [N] in the open passage
         self.work = 0.0  # [J] of the loads in the open passage
         self.energy0 = None  # [J] mechanical energy when the open passage's ledger started
-        self.last_step = None  # (load, displacement) of the step before, as lists (`account`)
+        self.last_step = None  # ([n, 6] load, [n, 6] displacement) of the step before (`account`)
 
     @property
     def done(self):
@@ -90,16 +90,16 @@ class PassageTracker:
 
     def account(self, sim):
         """Feed the energy ledger one step n (load F_n, displacement Δx_n): the work of the step
-        before, ½ (F_{n−1} + F_n)·Δx_{n−1}, summed in a fixed order (collective on the first
-        call: it measures the energy at x_n the ledger starts from)."""
+        before, ½ (F_{n−1} + F_n)·Δx_{n−1} (numpy over the replicated arrays: the same bits on
+        every rank; collective on the first call: it measures the energy at x_n the ledger
+        starts from)."""
         load, moved = sim.boxes.load_step(sim.last_dt)
         if self.energy0 is None:
             self.energy0 = mechanical_energy(sim)
         else:
-            before, step = np.asarray(self.last_step[0]), np.asarray(self.last_step[1])
-            for f0, f1, d in zip((0.5 * before).ravel(), (0.5 * load).ravel(), step.ravel()):
-                self.work += (f0 + f1) * d
-        self.last_step = [load.tolist(), moved.tolist()]
+            before, step = self.last_step
+            self.work += float(np.sum(0.5 * (before + load) * step))
+        self.last_step = (load, moved)
 
     def close(self, t, settlement, energy):
         """The row of the open passage ending at t: (t_start, t_end, peak, permanent, load peak
@@ -118,7 +118,8 @@ class PassageTracker:
     def state(self):
         out = {"ends": self.ends, "peaks": self.peaks, "reference": self.reference, "p": self.p,
                "t_start": self.t_start, "peak": self.peak, "peak_seen": self.peak_seen, "work": self.work,
-               "energy0": self.energy0, "last_step": self.last_step}
+               "energy0": self.energy0,
+               "last_step": None if self.last_step is None else [a.tolist() for a in self.last_step]}
         return out if self.load_peak is None else {**out, "load_peak": self.load_peak}
 
     @classmethod
@@ -127,7 +128,8 @@ class PassageTracker:
         tr.p, tr.t_start, tr.peak, tr.peak_seen = int(state["p"]), state["t_start"], state["peak"], state["peak_seen"]
         tr.load_peak = state.get("load_peak")
         # a checkpoint from before the ledger: it starts at the first step after the restart
-        tr.work, tr.energy0, tr.last_step = state.get("work", 0.0), state.get("energy0"), state.get("last_step")
+        tr.work, tr.energy0, last = state.get("work", 0.0), state.get("energy0"), state.get("last_step")
+        tr.last_step = None if last is None else tuple(np.array(a, float) for a in last)
         return tr
 
 
