@@ -330,6 +330,15 @@ def traffic_settings(doc, c):
         t["characteristic_length"] = (4.0 * ei * c["spacing"] / kd) ** 0.25
     length = number("traffic.characteristic_length", t["characteristic_length"], 0.0, lo_open=True)
     reach = ETA_ZERO * length
+    if c.get("periodic"):  # every axle over one period: each sleeper sees it once per passage
+        period_length = profile(c)["length"]
+        t.setdefault("x_from", 0.0)
+        t.setdefault("x_to", t["x_from"] + period_length)
+        laps = (t["x_to"] - t["x_from"]) / period_length
+        if not (laps >= 1.0 - 1e-9 and abs(laps - round(laps)) <= 1e-9):
+            raise InputError(f"traffic.x_to = {t['x_to']!r}: with track.periodic = true an axle must run a whole "
+                             f"number of periods from x_from = {t['x_from']!r} (x_to - x_from = k x {period_length:g} "
+                             "m), else the sleepers near the ends see it more or less often than the others")
     t.setdefault("x_from", float(x[0] - reach))
     t.setdefault("x_to", float(x[-1] + reach))
     train = make_train(t, c, 0.0)

@@ -1,9 +1,10 @@
 """The track with periodic ends (`[track] periodic = true`, #30): no end walls, the engine's
 periodic ends over [0, L] along x and the beam rail joined over the period.
 
-Pieces without a run: the stage scenes have no x walls and declare the period; bad input is one
-line (axles on the prescribed shares, a rail shorter than the period, `simulation.periodic` set by
-hand, another slab axis).
+Pieces without a run: the stage scenes have no x walls and declare the period, every axle runs
+one period; bad input is one line (axles on the prescribed shares, a rail shorter than the period,
+`simulation.periodic` set by hand, another slab axis, an axle run that is not a whole number of
+periods).
 
 End to end (slow): the reduced track of `test_track_beam` (half model, 3 sleepers, 0.9 m) with
 periodic ends and turning sleepers (`test_track_tilt`: the tilt about y, along the period), all
@@ -54,6 +55,7 @@ def test_the_stage_scenes_have_no_end_walls_and_declare_the_period():
     assert sc.settings.periodic is None and [int(a) for a in sc.walls.axis].count(0) == 2
     t = traffic_settings(d, c)
     assert t["rail_length"] == pytest.approx(profile(c)["length"])
+    assert (t["x_from"], t["x_to"]) == (0.0, profile(c)["length"])  # every axle over one period
 
 
 @pytest.mark.parametrize("traffic, simulation, message", [
@@ -61,6 +63,8 @@ def test_the_stage_scenes_have_no_end_walls_and_declare_the_period():
     ({"rail_model": "beam", "rail_length": 3.0}, None, "traffic.rail_length = 3.0: track.periodic = true needs"),
     (None, {"periodic": [0.0, 3.6]}, "simulation.periodic: set by track.periodic"),
     (None, {"slab_axis": "y"}, "simulation.slab_axis = 'y': track.periodic = true needs 'x'"),
+    ({"rail_model": "beam", "x_from": -0.2, "x_to": 3.6}, None,
+     "traffic.x_to = 3.6: with track.periodic = true an axle must run a whole number of periods"),
 ])
 def test_bad_periodic_track_input_is_one_line(traffic, simulation, message):
     d = doc(traffic, simulation)
