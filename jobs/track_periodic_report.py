@@ -20,7 +20,7 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 from pdem.format.groups import read_track  # noqa: E402
 
-CASES = ("walled", "periodic", "walled_x_held", "periodic_x_held")
+CASES = ("walled", "periodic", "walled_x_held", "periodic_x_held", "periodic_x_held_mid_entry")
 QUANTITIES = (("settlement_peak", "largest settlement in a passage", 1e3, "mm", "max"),
               ("settlement_permanent", "permanent after the last passage", 1e3, "mm", "last"),
               ("load_peak", "largest rail load on the sleeper", 1.0, "N", "max"))
@@ -59,7 +59,7 @@ def report(campaign, dest):
             v = np.array([m[q] for m in done[case]])
             md.append(f"| {case} | {len(v)} | " + " | ".join(
                 f"{a:.3g} [{lo:.3g} .. {hi:.3g}]" for a, lo, hi in zip(v.mean(0), v.min(0), v.max(0))) + " |")
-            k = np.arange(1, v.shape[1] + 1) + 0.1 * (i - 1.5)
+            k = np.arange(1, v.shape[1] + 1) + 0.08 * (i - 2)
             ax.errorbar(k, v.mean(0), yerr=[v.mean(0) - v.min(0), v.max(0) - v.mean(0)], fmt="o-", capsize=3,
                         label=f"{case} (n = {len(v)})")
         md.append("")

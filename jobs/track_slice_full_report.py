@@ -98,7 +98,8 @@ def seeds_report(campaign, dest, name="slice_full_seeds"):
     for k, label, scale, unit in keys:
         v = np.array([r[k] for r in rows]) * scale
         half = stats.t.ppf(0.975, len(v) - 1) * stats.sem(v) if len(v) > 1 else float("nan")
-        md.append(f"| {label} [{unit}] | " + " | ".join(f"{x:.3f}" for x in v) + f" | {v.mean():.3f} ± {half:.3f} |")
+        md.append(f"| {label} [{unit}] | " + " | ".join(f"{x:.3f}" for x in v)
+                  + f" | {v.mean():.3f} ± {half:.3f} (n = {len(v)}) |")
     md += [f"| thesis, E_k 2.8e6 Pa, 2 kN [mm] | about {THESIS_MM:g} | | |", ""]
     fig, ax = plt.subplots(1, 2, figsize=(12, 4.5))
     for r in rows:
