@@ -161,7 +161,7 @@ def campaign_report(camp, dest):
         d = camp / m["dir"]
         v = slice_numbers(d)
         if v is None or len(v["peak"]) < 3:
-            md.append(f"| {m['name']} | not run or not finished | " + " | " * (len(cols) + 2))
+            md.append(f"| {m['name']} | not run or not finished |" + " |" * (len(cols) + 3))
             continue
         sc = json.loads((d / "scaling.json").read_text())
         done.append(v)
