@@ -18,6 +18,10 @@ and units in `DEFAULTS`, `TRAFFIC_DEFAULTS`; SI) describes:
   [kg m²] (3 principal moments or a tensor) or that of the homogeneous box plus the rails as
   point masses at their seats (`sleeper_inertia`); the load acts at the rail seats
   (`seat_offsets`: with the beam each rail's pad at its seat, which moves with the sleeper).
+  ``sleeper_surface = "spheres"`` gives each sleeper body the contact shape of a closed shell of
+  member spheres of ``sleeper_member_radius`` [m] (`surface_settings`,
+  `pdem.scenes.common.sleepers`; not with turning sleepers), ``sleeper_mass = "members"`` their
+  mass (ρ Σ 4/3 π r³, Yade's clump mass).
 - the bed: from the subgrade (wall z = 0, ``base_material``, soft: stands for the layers
   below) to the sleeper top z_top = bed_depth + sleeper height, over the whole track length
   L = sleepers·spacing between end walls x = 0 and x = L; the shoulders reach
