@@ -2,12 +2,19 @@
 the rail seat gave "about 16 mm" at the peak).
 
     .venv/bin/python jobs/thesis_track.py [--out runs/thesis_track] [--ranks 2] [--report docs/track]
+    .venv/bin/python jobs/thesis_track.py --campaign runs/track_slice_calibrated_seeds [--report docs/track]
 
 Runs ``jobs/track_slice.toml`` as it is (vibrated: the default preparation) and without the
 vibration stage (vibration_time = 0, the loose bed), one after the other on ``--ranks`` ranks
 (re-running skips finished cases), then writes ``slice.md`` and ``slice.png`` into ``--report``:
 the settlement of the half-sleeper at the peak and at the end of each load cycle, the sleeper's
 base height after the preparation, and the load-settlement curves with the thesis's value.
+
+With ``--campaign DIR`` it runs nothing: it reads the members of a seed campaign of the slice
+(e.g. jobs/campaigns/track_slice_calibrated_seeds.toml, run by `pdem campaign run`) and writes
+``<campaign name>.md`` into ``--report`` (default DIR): the same numbers per seed (`slice_numbers`),
+their mean and the 95 % confidence interval of the mean (Student's t, n − 1 degrees of freedom),
+each member's wall time and load average (its scaling.json).
 """
 import argparse
 import json
@@ -57,6 +64,21 @@ def base_height(d):
         return float(f["series/sleeper_z"][-1]) - half
 
 
+def slice_numbers(d):
+    """The slice's numbers of the run in ``d`` [mm]: {"base": sleeper base when the load starts,
+    "seating": bed_depth − base (the sleeper's seating under its own weight from its placement),
+    "peak": settlement at the peak of each cycle, "permanent": after each cycle (from the load
+    start), "spheres"}; None if it has no results.h5."""
+    if not (d / "results.h5").exists():
+        return None
+    p = read_track(d / "results.h5").passages
+    scaling = d / "scaling.json"
+    bed = tomllib.loads((d / "scene.toml").read_text())["track"]["bed_depth"]
+    return {"base": 1e3 * base_height(d), "seating": 1e3 * (bed - base_height(d)),
+            "peak": 1e3 * p["settlement_peak"][:, 0], "permanent": 1e3 * p["settlement_permanent"][:, 0],
+            "spheres": json.loads(scaling.read_text())["bodies"] if scaling.exists() else "?"}
+
+
 def report(out, dest):
     import matplotlib
 
@@ -80,19 +102,15 @@ def report(out, dest):
             md.append(f"| {name} | (did not finish: {d / 'stdout.txt'}) | | | | |")
             continue
         rec = read_track(d / "results.h5")
-        p = rec.passages
         s = rec.settlement[:, 0] * 1e3
         load = rec.results.series["applied_load"] / 1e3
         t = rec.results.series["time"]
         n = int(rec.results.series["step"].size)
-        scaling = d / "scaling.json"
-        bodies = json.loads(scaling.read_text())["bodies"] if scaling.exists() else "?"
-        bed = tomllib.loads((d / "scene.toml").read_text())["track"]["bed_depth"]
-        seating = 1e3 * (bed - base_height(d))
-        md.append(f"| {name} | {bodies} | {1e3 * base_height(d):.1f} | {seating:.1f} | "
-                  + " / ".join(f"{1e3 * v:.2f}" for v in p["settlement_peak"][:, 0]) + " | "
-                  + " / ".join(f"{1e3 * v:.2f}" for v in p["settlement_permanent"][:, 0])
-                  + f" | {seating + 1e3 * p['settlement_peak'][0, 0]:.1f} | {THESIS_MM:g} |")
+        v = slice_numbers(d)
+        md.append(f"| {name} | {v['spheres']} | {v['base']:.1f} | {v['seating']:.1f} | "
+                  + " / ".join(f"{x:.2f}" for x in v["peak"]) + " | "
+                  + " / ".join(f"{x:.2f}" for x in v["permanent"])
+                  + f" | {v['seating'] + v['peak'][0]:.1f} | {THESIS_MM:g} |")
         ax[0].plot(s, load, color=f"C{k}", lw=1.0, label=f"pdem, {name.replace('_', ' ')}")
         ax[1].plot(t - t[0], s, color=f"C{k}", lw=1.0, label=f"pdem, {name.replace('_', ' ')} ({n} samples)")
     ax[0].plot([THESIS_MM], [2.0], "ks", label="thesis: about 16 mm at 2 kN")
@@ -111,12 +129,64 @@ def report(out, dest):
     print("\n".join(md))
 
 
+def mean_ci(values, level=0.95):
+    """(mean, half width of the ``level`` confidence interval of the mean: t_{(1+level)/2, n−1} s/√n)."""
+    from scipy import stats
+
+    x = np.asarray(values, float)
+    if len(x) < 2:
+        return float(x.mean()), float("nan")
+    return float(x.mean()), float(stats.t.ppf(0.5 + level / 2, len(x) - 1) * x.std(ddof=1) / len(x) ** 0.5)
+
+
+def campaign_report(camp, dest):
+    """``<name>.md`` in ``dest``: the slice's numbers of every member of the campaign in ``camp``
+    (`slice_numbers`), from the load start and from the sleeper's placement (seating + settlement),
+    with the mean ± 95 % CI over the members that finished."""
+    meta = json.loads((camp / "campaign.json").read_text())
+    cols = [("seating", lambda v: v["seating"])]
+    cols += [(f"peak {k + 1}", lambda v, k=k: v["peak"][k]) for k in range(3)]
+    cols += [(f"permanent {k}", lambda v, k=k: v["permanent"][k - 1]) for k in (1, 3)]
+    cols += [("seating + peak 1", lambda v: v["seating"] + v["peak"][0]),
+             ("seating + peak 3", lambda v: v["seating"] + v["peak"][2]),
+             ("seating + permanent 3", lambda v: v["seating"] + v["permanent"][2])]
+    md = [f"# {meta['name']}: the track slice over seeds (generated by jobs/thesis_track.py --campaign)", "",
+          f"Base: jobs/{Path(meta['base']).name}. Settlements [mm] from the load start; 'seating' is the sleeper's "
+          "sinking under its own weight (and the rail's) from its placement (base at bed_depth) to the load start; "
+          f"'seating + ...' counts from the placement. Thesis (fig. 6.6): about {THESIS_MM:g} mm at the peak.", "",
+          "| member | spheres | sleeper base at the start | " + " | ".join(n for n, _ in cols)
+          + " | wall [s] | load average (1/5/15 min) |", "|---" * (len(cols) + 5) + "|"]
+    done = []
+    for m in meta["members"]:
+        d = camp / m["dir"]
+        v = slice_numbers(d)
+        if v is None or len(v["peak"]) < 3:
+            md.append(f"| {m['name']} | not run or not finished |" + " |" * (len(cols) + 3))
+            continue
+        sc = json.loads((d / "scaling.json").read_text())
+        done.append(v)
+        md.append(f"| {m['name']} | {v['spheres']} | {v['base']:.1f} | " + " | ".join(f"{f(v):.2f}" for _, f in cols)
+                  + f" | {sc['wall_s']:.0f} | {sc.get('uptime')} |")
+    if done:
+        stats = [mean_ci([f(v) for v in done]) for _, f in cols]
+        md.append(f"| mean ± 95 % CI (n = {len(done)}) | | | "
+                  + " | ".join(f"{m:.2f} ± {h:.2f}" for m, h in stats) + " | | |")
+    (dest / f"{meta['name']}.md").write_text("\n".join(md) + "\n")
+    print("\n".join(md))
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", type=Path, default=ROOT / "runs" / "thesis_track")
     ap.add_argument("--ranks", type=int, default=2)
     ap.add_argument("--report", type=Path, default=None)
+    ap.add_argument("--campaign", type=Path, default=None, help="a seed campaign's directory: report it, run nothing")
     args = ap.parse_args(argv)
+    if args.campaign is not None:
+        dest = args.report or args.campaign
+        dest.mkdir(parents=True, exist_ok=True)
+        campaign_report(args.campaign, dest)
+        return 0
     for name, overrides in CASES:
         run_case(name, overrides, args.out, args.ranks)
     dest = args.report or args.out

@@ -62,6 +62,7 @@ from ..build.validate import number
 from .common.preparation import PREPARATION_DEFAULTS, PreparedRun, add_cloud, check_preparation, \
     pour_stage, refill_stage, remove_where, settle_stage, vibrate_stage
 from .common.grains import grain_spec
+from .common.sleepers import members_mass, sleeper_members
 from .common.stiffening import STIFFEN_DEFAULTS, check_stiffening, stiffen_stage
 from .cycles import CycleRecorder
 
@@ -169,7 +170,7 @@ def sleeper_mass(doc, c):
                              "has no members); give a mass in kg")
         r = c["sleeper_member_radius"]
         density = float(doc["materials"][c["sleeper_material"]]["density"])
-        return len(c["sleeper_members"]) * 4.0 / 3.0 * np.pi * r ** 3 * density
+        return members_mass(c["sleeper_members"], r, density)
     return number("box_test.sleeper_mass", m, 0.0, lo_open=True, allow="a number > 0 [kg] or 'members'")
 
 
@@ -179,21 +180,6 @@ def sleeper_geometry(c, bottom):
     bx, sz = np.asarray(c["box"], float), np.asarray(c["sleeper_size"], float)
     center = np.array([bx[0] / 2, bx[1] / 2, bottom + sz[2] / 2])
     return center, sz / 2
-
-
-def sleeper_members(size, r=0.005):
-    """Member centres [m, relative to the sleeper's centre] of the thesis's clump sleeper (5.2,
-    fig. 5.6: "one clump of 2280 spheres of radius 5 mm", the steel sleeper's shape and size):
-    spheres touching on a lattice of spacing 2r, forming a rectangular tube along y (the box's
-    width, whose walls close its ends): top and bottom plates of nx × ny spheres and two side
-    walls of ny × (nz − 2), n = size / 2r. For 250 × 300 × 150 mm: 2·25·30 + 2·30·13 = 2280
-    spheres, 9.37 kg of steel as Yade sums its members (7850 kg/m³). The sleeper of
-    ``sleeper_surface`` = "spheres" (`pdem.bodies.boxes.BoxMembers`)."""
-    n = [int(round(s / (2 * r))) for s in size]
-    axes = [(np.arange(k) - (k - 1) / 2.0) * 2 * r for k in n]
-    x, y, z = np.meshgrid(*axes, indexing="ij")
-    shell = (np.abs(z) == axes[2].max()) | (np.abs(x) == axes[0].max())
-    return np.stack([x[shell], y[shell], z[shell]], axis=1)
 
 
 def sleeper_on_top(c, tables):

@@ -18,6 +18,10 @@ and units in `DEFAULTS`, `TRAFFIC_DEFAULTS`; SI) describes:
   [kg m²] (3 principal moments or a tensor) or that of the homogeneous box plus the rails as
   point masses at their seats (`sleeper_inertia`); the load acts at the rail seats
   (`seat_offsets`: with the beam each rail's pad at its seat, which moves with the sleeper).
+  ``sleeper_surface = "spheres"`` gives each sleeper body the contact shape of a closed shell of
+  member spheres of ``sleeper_member_radius`` [m] (`surface_settings`,
+  `pdem.scenes.common.sleepers`; not with turning sleepers), ``sleeper_mass = "members"`` their
+  mass (ρ Σ 4/3 π r³, Yade's clump mass).
 - the bed: from the subgrade (wall z = 0, ``base_material``, soft: stands for the layers
   below) to the sleeper top z_top = bed_depth + sleeper height, over the whole track length
   L = sleepers·spacing between end walls x = 0 and x = L; the shoulders reach
@@ -100,6 +104,7 @@ from ..boundaries.rail_beam import RailBeam, RailSection, SleeperRails
 from ..build.validate import boolean, number
 from .common.bounds import plausible
 from .common.grains import grain_reach, grain_spec
+from .common.sleepers import members_mass, sleeper_members
 from ..bodies.boxes import principal_inertia
 from .common.preparation import PREPARATION_DEFAULTS, PreparedRun, add_cloud, check_preparation, \
     pour_stage, refill_stage, remove_where, settle_stage, vibrate_stage
@@ -125,6 +130,8 @@ DEFAULTS = {
     "slope": 1.5,                       # shoulder slope 1:slope (horizontal per vertical) [-]
     "ballast_material": "ballast", "wall_material": "steel", "base_material": "rubber",
     "sleeper_material": "concrete",
+    "sleeper_surface": "flat",          # "flat": a smooth rigid box; "spheres": a closed shell of member spheres
+    "sleeper_member_radius": 0.005,     # [m] of the "spheres" surface (`pdem.scenes.common.sleepers`)
     **PREPARATION_DEFAULTS,
     # full stiffness: prepared at young x prep_stiffness_factor, then `stiffen` (`pdem.scenes.common.stiffening`)
     **STIFFEN_DEFAULTS,
@@ -153,6 +160,7 @@ AXLE_KEYS = {"axle_load", "axles", "speed", "passages", "rest_time", "rail_bendi
              "x_from", "x_to", "characteristic_length", "rail_model", "rail_pad_stiffness", "rail_length"}
 BEAM_KEYS = {"rail_pad_stiffness", "rail_length"}  # rail_model "beam" only
 RAIL_MODELS = ("share", "beam")
+SURFACES = ("flat", "spheres")  # sleeper_surface
 TURNING = {False: "xyZ", True: "yXZ"}  # sleeper_rotation: blocked DOFs of a whole track, a half model
 HAVERSINE_KEYS = {"f_min", "f_max", "frequency", "cycles"}
 WHERE = ("track", "in the track bed")
@@ -204,13 +212,17 @@ def track_settings(doc):
                      doc["materials"][c["sleeper_material"]].get("density"), 0.0, lo_open=True,
                      allow="a finite number > 0 [kg/m³] (the sleepers' mass)")
     share = 0.5 if c["half"] else 1.0
-    if "sleeper_mass" in given:
-        c["sleeper_mass"] = number("track.sleeper_mass", c["sleeper_mass"], 0.0, lo_open=True, allow="a mass > 0 [kg]")
+    rotation = c["sleeper_rotation"] = boolean("track.sleeper_rotation", c.get("sleeper_rotation", False))
+    surface_settings(doc, c, given)
+    if given.get("sleeper_mass") == "members":  # the body's members; the whole sleeper's is 1/share of it
+        c["sleeper_mass"] = members_mass(c["sleeper_members"], c["sleeper_member_radius"], float(density)) / share
+    elif "sleeper_mass" in given:
+        c["sleeper_mass"] = number("track.sleeper_mass", c["sleeper_mass"], 0.0, lo_open=True,
+                                   allow="a mass > 0 [kg] or 'members' (with sleeper_surface = 'spheres')")
         plausible("track", {"sleeper_mass": c["sleeper_mass"]})
     else:
         c["sleeper_mass"] = float(density) * w * length * h
     c["body_mass"] = share * c["sleeper_mass"] + (1 if c["half"] else 2) * c["rail_mass"] * c["spacing"]
-    rotation = c["sleeper_rotation"] = boolean("track.sleeper_rotation", c.get("sleeper_rotation", False))
     blocked = c.get("sleeper_blocked", TURNING[c["half"]] if rotation else "yXYZ" if c["half"] else "xyXYZ")
     if rotation:
         need = "XZ" if c["half"] else "Z"
@@ -239,6 +251,47 @@ def track_settings(doc):
         raise InputError("run.steps: not used by a track scene (its stages end on their own criteria; "
                          "`pdem run --steps N` stops one early); remove it")
     return c
+
+
+def surface_settings(doc, c, given):
+    """``sleeper_surface`` "flat" (a smooth rigid box) or "spheres": each sleeper body's contact
+    shape is the closed shell of member spheres of radius ``sleeper_member_radius`` [m] on the
+    lattice of `pdem.scenes.common.sleepers.sleeper_members` over the body's box (a half model's
+    half-sleeper; its end at the symmetry plane closed too), ``c["sleeper_members"]`` [k, 3]
+    (None for "flat"); ``sleeper_mass = "members"`` (only with "spheres") gives the body the
+    members' mass of the sleeper material's density. Refused: a member radius <= 0 or above a
+    quarter of the body's smallest dimension (no shell), turning sleepers (a box with members
+    cannot rotate, `pdem.bodies.boxes`), periodic ends (untested with member sleepers)."""
+    surface = c["sleeper_surface"]
+    if surface not in SURFACES:
+        raise InputError(f"track.sleeper_surface = {surface!r}: must be one of {', '.join(map(repr, SURFACES))}")
+    if surface == "flat":
+        if given.get("sleeper_mass") == "members":
+            raise InputError("track.sleeper_mass = 'members': needs sleeper_surface = 'spheres' (a flat sleeper has no "
+                             "members); give a mass > 0 [kg] or leave it out (the sleeper material's density x volume)")
+        if "sleeper_member_radius" in given:
+            raise InputError(f"track.sleeper_member_radius = {given['sleeper_member_radius']!r}: used only with "
+                             "sleeper_surface = 'spheres'; remove it")
+        c["sleeper_members"] = None
+        return
+    size = 2.0 * sleeper_boxes(c)[1]
+    r = c["sleeper_member_radius"] = number("track.sleeper_member_radius", c["sleeper_member_radius"], 0.0,
+                                             lo_open=True, allow="a radius > 0 [m]")
+    if r > size.min() / 4:
+        raise InputError(f"track.sleeper_member_radius = {r!r}: at most a quarter of the sleeper body's smallest "
+                         f"dimension ({size.min():g} m / 4 = {size.min() / 4:g} m), so that its members form a shell")
+    n = np.round(size / (2 * r))
+    if np.any(n * 2 * r > size * (1 + 1e-9)):
+        raise InputError(f"track.sleeper_member_radius = {r!r}: its lattice of {n.astype(int).tolist()} spheres of "
+                         f"diameter {2 * r:g} m sticks out of the sleeper body {size.tolist()} m; choose r with "
+                         "round(size / 2r) 2r <= size on every axis")
+    if c["sleeper_rotation"]:
+        raise InputError("track.sleeper_surface = 'spheres': a sleeper of member spheres cannot rotate "
+                         "(pdem.bodies.boxes); use sleeper_rotation = false or sleeper_surface = 'flat'")
+    if given.get("periodic") is True:
+        raise InputError("track.sleeper_surface = 'spheres': member sleepers with periodic ends are untested; use "
+                         "periodic = false or sleeper_surface = 'flat'")
+    c["sleeper_members"] = sleeper_members(size, r, closed=True)
 
 
 def clump_settings(doc, given):
@@ -563,6 +616,8 @@ def stage_scene(doc, c, tables, sleepers=True, loads=None, centres=None, mass=No
         at = start if centres is None else np.asarray(centres, float)
         turning = {"inertia": sleeper_inertia(c, rails), "load_point": seat_offsets(c).mean(axis=0)} \
             if c["sleeper_rotation"] else {}
+        if c["sleeper_members"] is not None:  # sleeper_surface "spheres"
+            turning = {"members": c["sleeper_members"], "member_radius": c["sleeper_member_radius"]}
         for k in range(c["sleepers"]):
             scene.add_box(at[k], half, c["sleeper_material"], c["body_mass"] if mass is None else mass,
                           blocked=c["sleeper_blocked"],
