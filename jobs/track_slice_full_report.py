@@ -108,16 +108,7 @@ def seeds_report(campaign, dest, name="slice_full_seeds"):
     ax[0].set(xlabel="sleeper settlement less the pre-load sinking [mm]", ylabel="rail-seat load [kN]",
               title="Track slice at full stiffness, 0 -> 200 kN -> 0 in 0.05 s\n(thesis at E_k 2.8e6 Pa, 2 kN: ~16 mm)")
     ax[1].set(xlabel="time since the load started [ms]", ylabel="settlement less the pre-load sinking [mm]")
-    for a in ax:
-        a.grid(True, alpha=0.3)
-        a.legend(fontsize="small")
-    fig.tight_layout()
-    dest.mkdir(parents=True, exist_ok=True)
-    fig.savefig(dest / f"{name}.png", dpi=110)
-    plt.close(fig)
-    md += [f"![seeds]({name}.png)", ""]
-    (dest / f"{name}.md").write_text("\n".join(md) + "\n")
-    print("\n".join(md))
+    write_page(fig, ax, dest, name, md, "seeds")
 
 
 def report(run, dest, prepared=None, name="slice_full"):
@@ -194,17 +185,25 @@ def report(run, dest, prepared=None, name="slice_full"):
     ax2.plot(1e3 * (time - time[0]), load / 1e3, "C2", lw=0.8, label="load [kN]")
     ax2.set_ylabel("rail-seat load [kN]")
     ax[1].set(xlabel="time since the load started [ms]", ylabel="sleeper settlement [µm] (down)")
-    for a in ax:
+    write_page(fig, ax, dest, name, md, "slice at full stiffness", loc="upper left")
+    return names
+
+
+def write_page(fig, axes, dest, name, md, caption, **legend):
+    """Grid and legend on every axis, ``dest/name.png`` and ``dest/name.md`` (the lines ``md`` and
+    the figure), the page printed."""
+    import matplotlib.pyplot as plt
+
+    for a in axes:
         a.grid(True, alpha=0.3)
-        a.legend(fontsize="small", loc="upper left")
+        a.legend(fontsize="small", **legend)
     fig.tight_layout()
     dest.mkdir(parents=True, exist_ok=True)
     fig.savefig(dest / f"{name}.png", dpi=110)
     plt.close(fig)
-    md += [f"![slice at full stiffness]({name}.png)", ""]
+    md += [f"![{caption}]({name}.png)", ""]
     (dest / f"{name}.md").write_text("\n".join(md) + "\n")
     print("\n".join(md))
-    return names
 
 
 def main(argv=None):
