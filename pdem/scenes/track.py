@@ -385,8 +385,8 @@ def traffic_settings(doc, c):
     reach = ETA_ZERO * length
     if c.get("periodic"):  # every axle over one period: each sleeper sees it once per passage
         period_length = profile(c)["length"]
-        t.setdefault("x_from", 0.0)
-        t.setdefault("x_to", t["x_from"] + period_length)
+        t["x_from"] = number("traffic.x_from", t.get("x_from", 0.0))
+        t["x_to"] = number("traffic.x_to", t.get("x_to", t["x_from"] + period_length))
         laps = (t["x_to"] - t["x_from"]) / period_length
         if not (laps >= 1.0 - 1e-9 and abs(laps - round(laps)) <= 1e-9):
             raise InputError(f"traffic.x_to = {t['x_to']!r}: with track.periodic = true an axle must run a whole "

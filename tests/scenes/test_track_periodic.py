@@ -65,6 +65,7 @@ def test_the_stage_scenes_have_no_end_walls_and_declare_the_period():
     (None, {"slab_axis": "y"}, "simulation.slab_axis = 'y': track.periodic = true needs 'x'"),
     ({"rail_model": "beam", "x_from": -0.2, "x_to": 3.6}, None,
      "traffic.x_to = 3.6: with track.periodic = true an axle must run a whole number of periods"),
+    ({"rail_model": "beam", "x_from": "0.3"}, None, "traffic.x_from = '0.3': must be a finite number"),
 ])
 def test_bad_periodic_track_input_is_one_line(traffic, simulation, message):
     d = doc(traffic, simulation)
