@@ -27,7 +27,9 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "jobs"))
 from pdem.format.groups import read_track  # noqa: E402
+from thesis_track import mean_ci  # noqa: E402
 
 THESIS_MM, THESIS_KN, THESIS_E = 16.0, 2.0, 2.8e6  # thesis fig. 6.6: about 16 mm at 2 kN, E_k 2.8e6 Pa
 SCALED_MM = {"vibrated": 2.09, "not vibrated": 3.95}  # docs/track.md: pdem's slice at 2 kN, E_k 2.8e6 Pa
@@ -79,7 +81,6 @@ def seeds_report(campaign, dest, name="slice_full_seeds"):
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    from scipy import stats
 
     runs = sorted(d for d in campaign.iterdir() if (d / "results.h5").exists())
     rows = [slice_numbers(r) for r in runs]
@@ -97,9 +98,9 @@ def seeds_report(campaign, dest, name="slice_full_seeds"):
           "|---|" + "---|" * (len(rows) + 1)]
     for k, label, scale, unit in keys:
         v = np.array([r[k] for r in rows]) * scale
-        half = stats.t.ppf(0.975, len(v) - 1) * stats.sem(v) if len(v) > 1 else float("nan")
+        mean, half = mean_ci(v)
         md.append(f"| {label} [{unit}] | " + " | ".join(f"{x:.3f}" for x in v)
-                  + f" | {v.mean():.3f} ± {half:.3f} (n = {len(v)}) |")
+                  + f" | {mean:.3f} ± {half:.3f} (n = {len(v)}) |")
     md += [f"| thesis, E_k 2.8e6 Pa, 2 kN [mm] | about {THESIS_MM:g} | | |", ""]
     fig, ax = plt.subplots(1, 2, figsize=(12, 4.5))
     for r in rows:
