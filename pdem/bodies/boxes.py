@@ -90,6 +90,19 @@ def leapfrog_boxes(kernel_f, blocked, damping, mass, contact_force, load_force, 
     return moved
 
 
+@njit(cache=True)
+def place_member_rows(member_f, member_i, offset, box_f):
+    """Member rows at their box's centre plus their offset, with their box's velocity [m, m/s]:
+    ``member_f[k, 0:3] = box_f[b, 0:3] + offset[k]``, ``member_f[k, 3:6] = box_f[b, 6:9]`` with
+    b = ``member_i[k, 1]`` (`BoxMembers`). One compiled pass: the thesis's sleeper has 2280
+    members and this runs every step (numpy's fancy indexing cost 130 µs a step here)."""
+    for k in range(member_f.shape[0]):
+        b = member_i[k, 1]
+        for a in range(3):
+            member_f[k, a] = box_f[b, a] + offset[k, a]
+            member_f[k, 3 + a] = box_f[b, 6 + a]
+
+
 def blocked_mask(label, blocked, fixed):
     """Bit mask (bits 0–2 x, y, z; 3–5 rotations) from ``fixed`` or a string of ``xyzXYZ``
     (default: rotations blocked)."""
@@ -278,8 +291,7 @@ class Boxes:
         """Member sphere rows at their box's centre and velocity (after the boxes moved)."""
         if len(self.members):
             m = self.members
-            m.kernel_f[:, 0:3] = self.center[m.box] + m.offset
-            m.kernel_f[:, 3:6] = self.velocity[m.box]
+            place_member_rows(m.kernel_f, m.kernel_i, m.offset, self.kernel_f)
 
     def index(self, name_or_index):
         """Index of a box from its name or index."""
