@@ -284,7 +284,8 @@ class StagedRun:
         what `finish` or `report_stop` needs from all ranks."""
 
     def report_stop(self, sim, wall_s):
-        """Rank 0 after a run stopped by ``--steps``."""
+        """Rank 0 after a run stopped by ``--steps``: this invocation's timing table (rank 0's)."""
+        print(sim.timing_table(), flush=True)
 
     def finish(self, sim, wall_s, **facts):
         """Rank 0 at the end of the last stage: the run's account for its post-processing
