@@ -290,9 +290,41 @@ def member_quantity(member, quantity):
             return float(box_checks.within(member)[cycle - 1])
         return float({"sinking_after_peak": box_checks.sinking_after_peak, "rebound": box_checks.rebound,
                       "kept_fraction": box_checks.kept_fraction}[fname](member, cycle))
+    if group == "track":  # a track run's /passages, NAME@PASSAGE, the mean over the sleepers [m]
+        return track_quantity(member.results_path, name)
     from .campaign import Quantity
 
     return Quantity.parse(quantity).value(member)
+
+
+TRACK_QUANTITIES = ("settlement_peak", "settlement_permanent", "settlement_at_max_load")
+
+
+def track_quantity(path, name):
+    """``NAME@PASSAGE`` (default passage 1) of a kind "track" result file, the mean over its
+    sleepers, counted from the load start [m]: ``settlement_peak`` (the passage's largest
+    settlement), ``settlement_permanent`` (at the passage's end), ``settlement_at_max_load``
+    (at the sample of the largest ``/series/applied_load`` within the passage); NaN for a
+    passage that does not exist."""
+    from pdem.format.groups import read_track
+
+    fname, _, at = name.partition("@")
+    if fname not in TRACK_QUANTITIES:
+        raise ValidationError(f"track.{name}: must be track.NAME@PASSAGE with NAME one of "
+                              f"{', '.join(TRACK_QUANTITIES)}")
+    rec = read_track(path)
+    p = rec.passages
+    k = int(at or 1) - 1
+    if not 0 <= k < len(p["passage"]):
+        return math.nan
+    if fname != "settlement_at_max_load":
+        return float(np.mean(p[fname][k]))
+    t, load = rec.results.series["time"], rec.results.series["applied_load"]
+    inside = np.flatnonzero((t >= p["t_start"][k]) & (t <= p["t_end"][k]))
+    if inside.size == 0:
+        return math.nan
+    return float(np.mean(rec.settlement[inside[np.argmax(load[inside])]]))
+
 
 
 def refresh(rows, root) -> list[Path]:

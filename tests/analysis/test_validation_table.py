@@ -178,3 +178,43 @@ def test_cost_projection_is_steps_over_the_measured_rate():
     assert p.core_hours == pytest.approx(2 * 7.0e6 / 500.0 / 3600.0)
     with pytest.raises(V.ValidationError):
         V.project(0, 1.0, 1, 10)
+
+
+def _track_file(path):
+    """Two passages of a haversine 0 -> 2 kN -> 0 on two sleepers whose settlement follows the load
+    with a lag of 0.1 s (so the largest settlement comes after the largest load)."""
+    import h5py
+
+    from pdem.format.schema import append_passages, append_track_rows, write_results, write_track
+
+    t = np.round(np.arange(201) * 0.01, 12)
+    load = 1e3 * (1.0 - np.cos(2.0 * np.pi * t))
+    lagged = 1e3 * (1.0 - np.cos(2.0 * np.pi * np.clip(t - 0.1, 0.0, None)))
+    s = np.column_stack([1e-6 * lagged, 2e-6 * lagged]) + 1e-3 * (t >= 1.0)[:, None]
+    write_results(path, {"time": t, "step": np.arange(len(t)) * 10.0, "applied_load": (load, "N")}, None,
+                  {"scene": {"name": "track"}, "pdem_version": "0.1.0", "kind": "track"})
+    with h5py.File(path, "r+") as f:
+        write_track(f, np.array([0.0, 0.6]))
+        append_track_rows(f, s, 10.0 * s)
+        for k in range(2):
+            inside = (t >= k) & (t <= k + 1)
+            append_passages(f, float(k), float(k + 1), s[inside].max(axis=0), s[inside][-1])
+    return t, load, s
+
+
+def test_track_quantities_are_the_passage_table_and_the_settlement_at_the_largest_load(tmp_path):
+    from types import SimpleNamespace
+
+    path = tmp_path / "results.h5"
+    t, load, s = _track_file(path)
+    member = SimpleNamespace(results_path=path)
+    second = (t >= 1.0) & (t <= 2.0)
+    assert V.member_quantity(member, "track.settlement_peak@2") == pytest.approx(s[second].max(axis=0).mean())
+    assert V.member_quantity(member, "track.settlement_permanent@2") == pytest.approx(s[second][-1].mean())
+    at = np.flatnonzero(second)[np.argmax(load[second])]
+    assert V.member_quantity(member, "track.settlement_at_max_load@2") == pytest.approx(s[at].mean())
+    first = V.member_quantity(member, "track.settlement_at_max_load@1")
+    assert first < V.member_quantity(member, "track.settlement_peak@1")  # the settlement lags the load
+    assert np.isnan(V.member_quantity(member, "track.settlement_peak@3"))
+    with pytest.raises(V.ValidationError):
+        V.member_quantity(member, "track.gap@1")
