@@ -1,6 +1,7 @@
 """Command line: ``python -m analysis box RUN_DIR|RESULTS.h5 [--out DIR]``; also ``grading``, ``blast``,
 ``track``, ``oedometer`` (each defined by its module's ``add_parser``), ``campaign DIR`` (`analysis.campaign`),
-``error-vs-runtime DIR`` (`analysis.error_vs_runtime`), ``stability DIR [DIR ...]``
+``blast-sensitivity DIR`` (`analysis.blast_sensitivity`), ``error-vs-runtime DIR`` (`analysis.error_vs_runtime`),
+``stability DIR [DIR ...]``
 (`analysis.stability`: exit status 1 when the stability map fails or is not finished) and
 ``box-checks CALIBRATION_DIR CHECKS_DIR`` (`analysis.box_checks`) and ``validate``
 (`analysis.validation`: the validation table from jobs/validation/rows.toml).
@@ -40,8 +41,8 @@ class _Parser(argparse.ArgumentParser):
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from . import blast, box_checks, campaign, error_vs_runtime, grading, oedometer, run_summary, stability, track, \
-        validation
+    from . import blast, blast_sensitivity, box_checks, campaign, error_vs_runtime, grading, oedometer, run_summary, \
+        stability, track, validation
     from .stiffness import LOADING_WINDOW, UNLOADING_FRACTION
 
     parser = _Parser(prog=PROG, description="Analyse pdem HDF5 result files.")
@@ -65,6 +66,7 @@ def build_parser() -> argparse.ArgumentParser:
     for module in (grading, blast, track, oedometer, run_summary, validation):
         module.add_parser(sub)
     campaign.add_parser(sub)
+    blast_sensitivity.add_parser(sub)
     box_checks.add_parser(sub)
     error_vs_runtime.add_parser(sub)
     stability.add_parser(sub)
@@ -80,7 +82,7 @@ def main(argv=None) -> int:
     if args.command is None:
         parser.print_help(sys.stderr)
         return EXIT_BAD_INPUT
-    if args.command in ("campaign", "error-vs-runtime", "stability", "box-checks"):
+    if args.command in ("campaign", "blast-sensitivity", "error-vs-runtime", "stability", "box-checks"):
         return _run_campaign(args)
     from . import validation
     from .summary import run_box
@@ -101,10 +103,10 @@ def main(argv=None) -> int:
 
 
 def _run_campaign(args) -> int:
-    from . import box_checks, campaign, error_vs_runtime, stability
+    from . import blast_sensitivity, box_checks, campaign, error_vs_runtime, stability
 
-    module = {"campaign": campaign, "error-vs-runtime": error_vs_runtime, "stability": stability,
-              "box-checks": box_checks}[args.command]
+    module = {"campaign": campaign, "blast-sensitivity": blast_sensitivity, "error-vs-runtime": error_vs_runtime,
+              "stability": stability, "box-checks": box_checks}[args.command]
     try:
         written = module.run(args)
     except (campaign.CampaignError, ResultFileError) as err:
