@@ -37,6 +37,9 @@ from .campaign import (CampaignError, Quantity, _columns, _finite, display, grou
 from .figures import save
 
 
+NOISE_WORDS = {True: "yes", False: "no", None: "unknown"}  # error below the floor; None: no floor
+
+
 def _parse_value(text):
     try:
         return float(text)
@@ -103,7 +106,9 @@ def error_table(groups, ref, q):
     for x in rows:
         x["speedup"] = ref_row["wall_s"] / x["wall_s"] if x["wall_s"] > 0 else float("nan")
         x["cost_ratio"] = ref_row["core_h"] / x["core_h"] if x["core_h"] > 0 else float("nan")
-        x["noise"] = bool(np.isfinite(x["floor"]) and x["abs_error"] <= x["floor"]) if not x["reference"] else None
+        # no floor (a reference of one seed): whether the error is noise is unknown (None)
+        x["noise"] = (bool(x["abs_error"] <= x["floor"]) if np.isfinite(x["floor"]) else None) \
+            if not x["reference"] else None
     return {"quantity": q.text, "units": q.units(ref.members[0]), "q_ref": q_ref, "s_ref": s_ref, "n_ref": len(r),
             "floor": floor, "rows": rows}
 
@@ -149,7 +154,7 @@ def error_report(path, quantities, reference, out=None):
             "cost ratio",
         ]
         rows = [[x["group"], str(x["n"]), f"{x['mean'] * f:.6g}", f"{x['error']:+.4g}", f"{x['abs_error']:.4g}",
-                 f"{x['floor']:.4g}", "reference" if x["reference"] else ("yes" if x["noise"] else "no"),
+                 f"{x['floor']:.4g}", "reference" if x["reference"] else NOISE_WORDS[x["noise"]],
                  f"{x['wall_s']:.1f}", f"{x['core_h']:.4f}", f"{x['speedup']:.2f}",
                  f"{x['cost_ratio']:.2f}"] for x in t["rows"]]
         lines += _columns(head, rows) + [""]
