@@ -7,8 +7,12 @@ carries the platen (mean ballast force over the load stage = mean load + platen 
 platen's momentum balance); the fragment records "initial", "vibrated", "peak", "unloaded"
 hold the same mass (bonds break, mass stays), the initial one has only intact grains and the
 peak one has broken grains; the grading and stiffness analysis is written. A run resumed from
-the checkpoint at the end of a stage ends with the same bits (series, fragments, bodies).
+the checkpoint at the end of a stage ends with the same bits (series, fragments, bodies). The
+overlap statistics of the load record (issue #32) are the bodies' overlaps of the checkpoint at
+the end of the load, and `python -m analysis oedometer-overlap` gives what a hand computation
+from the results file gives.
 """
+import json
 import math
 import shutil
 
@@ -158,6 +162,126 @@ def test_resume_after_a_stage_checkpoint(r1, tmp_path):
     r = run_pdem(1, OEDOMETER_CI_JOB, got)
     assert "resuming" in r.stdout
     assert run_differences(r1, got) == []
+
+
+# ---------------------------------------------------------------------------- overlaps (issue #32)
+def _closest_on_triangle(x, a, b, c):
+    """The point of triangle abc closest to x (Ericson, Real-Time Collision Detection 5.1.5)."""
+    ab, ac, ax = b - a, c - a, x - a
+    d1, d2 = ab @ ax, ac @ ax
+    if d1 <= 0 and d2 <= 0:
+        return a
+    d3, d4 = ab @ (x - b), ac @ (x - b)
+    if d3 >= 0 and d4 <= d3:
+        return b
+    if d1 * d4 - d3 * d2 <= 0 and d1 >= 0 and d3 <= 0:
+        return a + d1 / (d1 - d3) * ab
+    d5, d6 = ab @ (x - c), ac @ (x - c)
+    if d6 >= 0 and d5 <= d6:
+        return c
+    if d5 * d2 - d1 * d6 <= 0 and d2 >= 0 and d6 <= 0:
+        return a + d2 / (d2 - d6) * ac
+    va, vb, vc = d3 * d6 - d5 * d4, d5 * d2 - d1 * d6, d1 * d4 - d3 * d2
+    if va <= 0 and d4 - d3 >= 0 and d5 - d6 >= 0:
+        return b + (d4 - d3) / ((d4 - d3) + (d5 - d6)) * (c - b)
+    return a + ab * vb / (va + vb + vc) + ac * vc / (va + vb + vc)
+
+
+def _overlaps_from_checkpoint(path, platen_half):
+    """δ/r of every contact in compression of a checkpoint, by group, from the bodies' positions
+    (not the contact store's overlaps): sphere pairs (bonded where the bond's adhesions are > 0),
+    the base plane z = 0, the cylinder's facets and the platen's bottom face; and the intact bonds."""
+    with h5py.File(path, "r") as f:
+        t = f["tables"]
+        gid, pos, rad = (t["particles"][k][()] for k in ("gid", "pos", "radius"))
+        row = {int(g): k for k, g in enumerate(gid)}
+        con = {k: (t["contacts"][k]["key"][()], t["contacts"][k]["history"][()]) for k in t["contacts"]}
+        tri, fidx = t["facets"]["vertices"][()], list(t["facets"]["index"][()])
+        bottom = float(t["boxes"]["center"][0, 2]) - platen_half
+    key, hist = con["sphere_sphere"]
+    i = np.array([row[int(g)] for g in key >> 32])
+    j = np.array([row[int(g)] for g in key & ((1 << 32) - 1)])
+    ratio = (rad[i] + rad[j] - np.linalg.norm(pos[i] - pos[j], axis=1)) / np.minimum(rad[i], rad[j])
+    bonded = (hist[:, 4] > 0) | (hist[:, 5] > 0)  # cohesive law: a_N, a_T
+    out = {"pair": ratio[~bonded & (ratio > 0)], "bond": ratio[bonded & (ratio > 0)], "bonds": int(bonded.sum())}
+    wall = []
+    for kind in ("sphere_wall", "sphere_facet", "sphere_box"):
+        for g, b in zip(con[kind][0] >> 20, con[kind][0] & ((1 << 20) - 1)):
+            x, r = pos[row[int(g)]], rad[row[int(g)]]
+            d = (x[2] if kind == "sphere_wall" else bottom - x[2] if kind == "sphere_box"
+                 else np.linalg.norm(x - _closest_on_triangle(x, *tri[fidx.index(b)])))
+            wall.append((r - d) / r)
+    out["boundary"] = np.array([w for w in wall if w > 0])
+    return out
+
+
+@pytest.mark.slow
+def test_overlap_statistics_are_the_bodies_overlaps(r1):
+    """slow: uses the run of `test_platen_follows_the_program`. The load record's overlap statistics
+    at its last row (the end of the load stage) against the same figures computed from the bodies'
+    positions in the checkpoint written there (one step's motion apart: 1e-4 of the radius); the
+    largest of the three groups is the guard's max_overlap_ratio at every row; the intact bonds
+    at the start of the load are the grains' bonds counted from the grain's members (all whole,
+    `test_fragments_and_grading`), and they only decrease."""
+    c = oedometer.settings(oedometer_ci_doc())
+    with h5py.File(r1 / "results.h5", "r") as f:
+        s = {k: f["series"][k][()] for k in f["series"]}
+        n_grains = len(f["fragments"]["vibrated"]["n_members"][()])
+    step, ckpt = list_checkpoints(r1 / "checkpoints")[-1]
+    assert s["step"][-1] == step
+    got = _overlaps_from_checkpoint(ckpt, 0.5 * c["platen_thickness"])
+    for g in ("pair", "bond", "boundary"):
+        assert len(got[g]) > 0
+        assert s[f"{g}_overlap_max"][-1] == pytest.approx(got[g].max(), abs=1e-4), g
+        assert s[f"{g}_overlap_mean"][-1] == pytest.approx(got[g].mean(), rel=0.02, abs=1e-5), g
+    assert s["intact_bonds"][-1] == got["bonds"]
+    largest = np.max([s[f"{g}_overlap_max"] for g in ("pair", "bond", "boundary")], axis=0)
+    assert np.array_equal(largest, s["max_overlap_ratio"])
+    m = c["grain"]["members"]
+    d = np.linalg.norm(m[:, None] - m[None], axis=2)
+    touching = np.triu(d <= (c["grain"]["member_radii"][:, None] + c["grain"]["member_radii"][None]) * (1 + 1e-9), 1)
+    assert s["intact_bonds"][0] == n_grains * int(touching.sum())
+    assert np.all(np.diff(s["intact_bonds"]) <= 0) and s["intact_bonds"][-1] < s["intact_bonds"][0]
+
+
+@pytest.mark.slow
+def test_overlap_analysis_against_hand_computation(r1, tmp_path):
+    """slow: `python -m analysis oedometer-overlap` on the run of `test_platen_follows_the_program`
+    against the same figures computed here from the file: the bonds broken while the largest
+    overlap exceeded θ (a plain loop over the samples), the grading by mass and by number of the
+    "unloaded" record, the overlaps at the peak load."""
+    from analysis.__main__ import main
+
+    assert main(["oedometer-overlap", str(r1), "--out", str(tmp_path), "--threshold", "0.05", "0.1"]) == 0
+    got = json.loads((tmp_path / "overlap.json").read_text())["runs"][str(r1)]
+    assert (tmp_path / "overlap.png").stat().st_size > 1000
+    assert "threshold 0.1 r" in (tmp_path / "overlap.txt").read_text()
+    with h5py.File(r1 / "results.h5", "r") as f:
+        s = {k: f["series"][k][()] for k in f["series"]}
+        n, mass = (f["fragments"]["unloaded"][k][()] for k in ("n_members", "mass"))
+    largest = s["max_overlap_ratio"]  # = the largest of the three groups (the test above)
+    bonds = s["intact_bonds"]
+    for th, entry in zip((0.05, 0.1), got["thresholds"]):
+        above = total = 0.0
+        for k in range(1, len(bonds)):
+            lost = bonds[k - 1] - bonds[k]
+            total += lost
+            if largest[k - 1] > th or largest[k] > th:
+                above += lost
+        assert total > 0 and entry["share_above"] == pytest.approx(above / total, rel=1e-12)
+        assert entry["first_load"] == s["platen_load"][np.argmax(largest > th)]
+    assert got["bonds_broken"] == bonds[0] - bonds[-1]
+    peak = int(np.argmax(s["platen_load"]))
+    assert got["largest_at_peak"] == largest[peak]
+    assert got["groups"]["pair"]["mean_at_peak"] == s["pair_overlap_mean"][peak]
+    large = oedometer.intact_members(oedometer.settings(oedometer_ci_doc()))  # 8 < 135: the grain's size
+    after = got["grading"]["after"]
+    assert got["large"] == large and after["label"] == "unloaded"
+    assert after["single_mass"] == pytest.approx(mass[n == 1].sum() / mass.sum(), rel=1e-12)
+    assert after["large_mass"] == pytest.approx(mass[n >= large].sum() / mass.sum(), rel=1e-12)
+    assert after["single_number"] == pytest.approx(np.count_nonzero(n == 1) / len(n), rel=1e-12)
+    assert after["large_number"] == pytest.approx(np.count_nonzero(n >= large) / len(n), rel=1e-12)
+    assert 0 < after["single_mass"] < 1 and got["grading"]["before"]["large_mass"] == 1.0
 
 
 def test_bond_push_is_the_overlap_force_over_the_normal_strength():
