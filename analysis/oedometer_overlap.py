@@ -6,7 +6,7 @@ the 5.55e11 Pa the thesis identified for its rigid clumps, with the full 1.5 MN)
     python -m analysis oedometer-overlap PATH [PATH ...] [--out DIR] [--threshold 0.05 0.1] [--large N]
 
 PATH: a run directory (or its results.h5) of a breakable oedometer, or a campaign directory of
-such runs (jobs/campaigns/oedometer_overlap.toml: members grouped by case over the seeds). It
+such runs (jobs/campaigns/validation_oedometer_overlap.toml: members grouped by case over the seeds). It
 reads the load record's overlap statistics (`pdem.scenes.oedometer`, pdem >= 0.3.0:
 ``<group>_overlap_max``, ``<group>_overlap_mean`` [-] of the groups ``pair`` (spheres of different
 grains or fragments), ``bond`` (intact bonds) and ``boundary`` (base, cylinder, platen), and
@@ -22,9 +22,11 @@ Per run:
   bonds broken b_0 - b_end, as a fraction of b_0;
 - the share of that breakage that happened while the overlaps exceeded a threshold θ: the
   bonds lost between two samples k-1, k count as "above θ" when the largest δ/r of any contact
-  exceeded θ at either sample (the samples are the record's, every ``run.output_every`` steps:
-  a sampled, not a continuous, maximum); also the applied load when the largest δ/r first passed
-  θ, and the same share by the mean δ/r between grains (group ``pair``);
+  exceeded θ at sample k-1, before they broke (a lower bound: ``share_before``), or at either
+  sample (an upper bound: ``share_above``; a burst of breakage rearranges the grains and may
+  itself make the large overlap at k). The samples are the record's, every ``run.output_every``
+  steps: a sampled, not a continuous, maximum. Also the applied load when the largest δ/r
+  first passed θ;
 - grading after loading (record "unloaded", else the last), by mass and by number of
   fragments: single spheres [%] and fragments of >= ``large`` spheres [%] (default 135, the
   thesis's "135 and more", or the intact grain's size if smaller), as the thesis's fig. 4.25
@@ -86,12 +88,13 @@ def read_overlap(path):
 
 
 def breakage_above(bonds, largest, threshold):
-    """(bonds broken between samples while ``largest`` [-] exceeded ``threshold`` at either end
-    of the interval, bonds broken in all): the load record's breakage split by the overlap."""
+    """(bonds broken between samples k-1, k while ``largest`` [-] exceeded ``threshold`` at k-1,
+    the same at k-1 or k, bonds broken in all): the load record's breakage split by the overlap."""
     bonds, largest = np.asarray(bonds, np.float64), np.asarray(largest, np.float64)
     lost = np.maximum(bonds[:-1] - bonds[1:], 0.0)
-    above = (largest[:-1] > threshold) | (largest[1:] > threshold)
-    return float(lost[above].sum()), float(lost.sum())
+    before = largest[:-1] > threshold
+    either = before | (largest[1:] > threshold)
+    return float(lost[before].sum()), float(lost[either].sum()), float(lost.sum())
 
 
 def grading_figures(record, density, large):
@@ -127,12 +130,11 @@ def analyse_run(path, thresholds=THRESHOLDS, large=None) -> dict:
     out["broken_fraction"] = float(broken / bonds[0]) if bonds[0] > 0 else math.nan
     out["thresholds"] = []
     for th in thresholds:
-        above, total = breakage_above(bonds, largest, th)
-        above_mean, _ = breakage_above(bonds, s["pair_overlap_mean"], th)
+        before, above, total = breakage_above(bonds, largest, th)
         first = np.flatnonzero(largest > th)
         out["thresholds"].append({
-            "threshold": float(th), "share_above": above / total if total > 0 else math.nan,
-            "share_above_by_mean": above_mean / total if total > 0 else math.nan,
+            "threshold": float(th), "share_before": before / total if total > 0 else math.nan,
+            "share_above": above / total if total > 0 else math.nan,
             "first_load": float(load[first[0]]) if len(first) else math.nan,
             "samples_above": int(np.count_nonzero(largest > th))})
     try:
@@ -178,6 +180,7 @@ def figures_of(run) -> dict:
          "broken_fraction": run["broken_fraction"],
          **{k: after.get(k, math.nan) for k in ("single_mass", "large_mass", "single_number", "large_number")}}
     for t in run["thresholds"]:
+        f[f"share_before_{t['threshold']:g}"] = t["share_before"]
         f[f"share_above_{t['threshold']:g}"] = t["share_above"]
     return f
 
@@ -248,9 +251,9 @@ def run_lines(name, r) -> list[str]:
     for t in r["thresholds"]:
         first = (f"first passed at {t['first_load'] * KN:.4g} kN" if math.isfinite(t["first_load"])
                  else "never passed")
-        out.append(f"  threshold {t['threshold']:g} r: {_pct(t['share_above'])} % of the load's breakage while the "
-                   f"largest overlap exceeded it ({first}; {t['samples_above']} samples above); "
-                   f"{_pct(t['share_above_by_mean'])} % while the mean between grains did")
+        out.append(f"  threshold {t['threshold']:g} r: {_pct(t['share_before'])}-{_pct(t['share_above'])} % of the "
+                   f"load's breakage while the largest overlap exceeded it (before the bonds broke - at either "
+                   f"sample; {first}; {t['samples_above']} samples above)")
     if r["grading"]:
         out.append(f"  grading (fragments of >= {r['large']} spheres: 'large'):  by mass: single / large;  "
                    "by number: single / large")

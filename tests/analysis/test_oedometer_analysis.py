@@ -91,10 +91,11 @@ def test_breakage_above_a_threshold_counts_intervals_with_either_end_above():
 
     bonds = [100, 100, 90, 90, 60, 55, 55]
     largest = [0.01, 0.02, 0.04, 0.06, 0.20, 0.03, 0.01]
-    # lost per interval: 0, 10, 0, 30, 5, 0; intervals with an end above 0.05: (2,3), (3,4), (4,5)
-    assert breakage_above(bonds, largest, 0.05) == (35.0, 45.0)
-    assert breakage_above(bonds, largest, 0.1) == (35.0, 45.0)  # (3,4) and (4,5) touch 0.20
-    assert breakage_above(bonds, largest, 0.5) == (0.0, 45.0)
+    # lost per interval: 0, 10, 0, 30, 5, 0; above 0.05 at the start: (3,4), (4,5); at an end also (2,3)
+    assert breakage_above(bonds, largest, 0.05) == (35.0, 35.0, 45.0)
+    assert breakage_above(bonds, largest, 0.1) == (5.0, 35.0, 45.0)  # only (4,5) starts above; (3,4) ends there
+    assert breakage_above(bonds, largest, 0.03) == (35.0, 45.0, 45.0)  # (1,2) ends above 0.03
+    assert breakage_above(bonds, largest, 0.5) == (0.0, 0.0, 45.0)
 
 
 def test_overlap_conclusion_compares_each_case_with_the_first():

@@ -262,13 +262,14 @@ def test_overlap_analysis_against_hand_computation(r1, tmp_path):
     largest = s["max_overlap_ratio"]  # = the largest of the three groups (the test above)
     bonds = s["intact_bonds"]
     for th, entry in zip((0.05, 0.1), got["thresholds"]):
-        above = total = 0.0
+        before = above = total = 0.0
         for k in range(1, len(bonds)):
             lost = bonds[k - 1] - bonds[k]
             total += lost
-            if largest[k - 1] > th or largest[k] > th:
-                above += lost
+            before += lost if largest[k - 1] > th else 0.0
+            above += lost if largest[k - 1] > th or largest[k] > th else 0.0
         assert total > 0 and entry["share_above"] == pytest.approx(above / total, rel=1e-12)
+        assert entry["share_before"] == pytest.approx(before / total, rel=1e-12)
         assert entry["first_load"] == s["platen_load"][np.argmax(largest > th)]
     assert got["bonds_broken"] == bonds[0] - bonds[-1]
     peak = int(np.argmax(s["platen_load"]))
@@ -396,3 +397,84 @@ def test_the_thesis_grain_job_is_the_scaled_job_with_the_grain_and_preparation_o
     assert grain == {"shape": "ellipsoid", "radii": [0.024] * 3, "member_radius": 0.0036, "member_spacing": 0.0067,
                      "breakable": True, "stress_free": False}
     assert preparation == {"bond_boost": 10.0, "bond_boost_time": 0.05, "lattice_gap": 0.1}
+
+
+def _campaign_docs(name):
+    """{case: the scene of its seed-1 member} of jobs/campaigns/<name>.toml."""
+    from pdem.campaign.spec import load_campaign
+
+    camp = load_campaign(OEDOMETER_CI_JOB.parent / "campaigns" / f"{name}.toml", out="/nonexistent")
+    return {m.params["case"]: m.doc for m in camp.members if m.params["oedometer.seed"] == 1}
+
+
+def test_the_unscaled_thesis_grain_job_is_the_scaled_one_unscaled():
+    """jobs/oedometer_breakable_thesis_grain.toml (the overlap study's base) is the scaled thesis-grain
+    job with E_k, c and forces x 100 and the load's time / 10: table 4.15 (5.55e9 Pa, 162.04 MPa,
+    250 N -> 1.5 MN) in 0.2 s; the preparation's times kept; the samples every 10x the steps."""
+    import tomllib
+
+    jobs = OEDOMETER_CI_JOB.parent
+    scaled, full = (tomllib.loads((jobs / f"oedometer_breakable{suffix}.toml").read_text())
+                    for suffix in ("_scaled_thesis_grain", "_thesis_grain"))
+    oedometer.check(full)
+    ballast, load = full["materials"]["ballast"], full["oedometer"]
+    assert (ballast["young"], ballast["normal_cohesion"]) == (5.55e9, 162.04e6)
+    assert (load["f_min"], load["f_max"], load["load_time"]) == (250.0, 1.5e6, 0.2)
+    for name, m in scaled["materials"].items():
+        for k in ("young", "normal_cohesion", "shear_cohesion"):
+            assert full["materials"][name][k] == pytest.approx(100 * m[k], rel=1e-12)
+            m[k] = full["materials"][name][k]
+    for k in ("f_min", "f_max"):
+        assert full["oedometer"][k] == pytest.approx(100 * scaled["oedometer"][k], rel=1e-12)
+        scaled["oedometer"][k] = full["oedometer"][k]
+    assert full["oedometer"]["load_time"] == pytest.approx(scaled["oedometer"]["load_time"] / 10, rel=1e-12)
+    scaled["oedometer"]["load_time"] = full["oedometer"]["load_time"]
+    assert full["run"]["output_every"] == 10 * scaled["run"]["output_every"]
+    scaled["run"].update(output_every=full["run"]["output_every"], checkpoint_every_s=full["run"]["checkpoint_every_s"])
+    assert full == scaled
+
+
+def test_the_overlap_campaign_cases_differ_by_the_grains_preparation_and_the_modulus():
+    """jobs/campaigns/validation_oedometer_overlap.toml: "thesis" is its base (the thesis's grain,
+    Yade's bonds pushing 4.8 a_N, held tenfold); "thesis_expanded" the same grain as it is after
+    that preparation (its 136 members 7.2 mm apart: positions x 7.2/6.7; touching, no push, no
+    boost) poured on the same lattice sites; "identified" that with E_k = 5.55e11 Pa (thesis
+    eq. 4.2, 100x) and steel 10 E_k. Nothing else differs."""
+    docs = _campaign_docs("validation_oedometer_overlap")
+    thesis, expanded, identified = docs["thesis"], docs["thesis_expanded"], docs["identified"]
+    c0, c1 = oedometer.settings(thesis), oedometer.settings(expanded)
+    assert len(c1["grain"]["members"]) == len(c0["grain"]["members"]) == 136
+    np.testing.assert_allclose(np.sort(c1["grain"]["members"], axis=0),
+                               np.sort(c0["grain"]["members"] * 7.2 / 6.7, axis=0), atol=1e-12)
+    assert oedometer.bond_push(thesis, c0) > 1.0 and oedometer.bond_push(expanded, c1) < 1e-9
+    s0 = np.array([g[0].mean(axis=0) for g in oedometer.grain_fill(c0, 1)])
+    s1 = np.array([g[0].mean(axis=0) for g in oedometer.grain_fill(c1, 1)])
+    assert s0.shape == s1.shape and np.abs(s0 - s1).max() < 1e-5  # the same pour, seed for seed
+    assert [identified["materials"][m]["young"] for m in ("ballast", "steel")] == [5.55e11, 5.55e12]
+    for m in ("ballast", "steel"):
+        assert identified["materials"][m]["young"] == pytest.approx(100 * expanded["materials"][m]["young"], rel=1e-12)
+        identified["materials"][m]["young"] = expanded["materials"][m]["young"]
+    assert identified == expanded
+    for k in ("clumps", "bond_boost", "lattice_gap"):
+        expanded["oedometer"].pop(k), thesis["oedometer"].pop(k)
+    assert expanded == thesis
+
+
+def test_the_reduced_overlap_campaign_keeps_table_4_15_dimensionless():
+    """jobs/campaigns/oedometer_overlap_reduced.toml: its base (jobs/oedometer_overlap_reduced.toml)
+    has table 4.15's c/E_k and F_max/(E_k A) and the thesis's load in natural periods (0.2 s x
+    1/sqrt(1e-3)); its case "identified" is 100x stiffer, loaded in the same natural periods
+    (the load's time / 10), nothing else changed."""
+    docs = _campaign_docs("oedometer_overlap_reduced")
+    soft, stiff = docs["thesis_expanded"], docs["identified"]
+    m, c = soft["materials"]["ballast"], soft["oedometer"]
+    assert m["normal_cohesion"] / m["young"] == pytest.approx(162.04e6 / 5.55e9, rel=1e-12)
+    area = math.pi * (c["diameter"] / 2) ** 2
+    assert c["f_max"] / (m["young"] * area) == pytest.approx(1.5e6 / (5.55e9 * math.pi * 0.15**2), rel=1e-4)
+    assert c["load_time"] == pytest.approx(0.2 / math.sqrt(1e-3), rel=1e-4)
+    for name in ("ballast", "steel"):
+        assert stiff["materials"][name]["young"] == pytest.approx(100 * soft["materials"][name]["young"], rel=1e-12)
+        stiff["materials"][name]["young"] = soft["materials"][name]["young"]
+    assert stiff["oedometer"]["load_time"] == pytest.approx(c["load_time"] / 10, rel=1e-4)
+    stiff["oedometer"]["load_time"] = c["load_time"]
+    assert stiff == soft
