@@ -110,6 +110,10 @@ def test_overlap_conclusion_compares_each_case_with_the_first():
     assert conclusion([thesis, same]).count("no significant difference, not an overlap artefact") == 2
     assert conclusion([thesis, less]).count("breakage depends on the overlap") == 2
     assert "fewer than two seeds" in conclusion([thesis, case("identified", [0.1], [0.0])])
+    for c, start in ((thesis, 1000.0), (same, 995.0), (less, 500.0)):
+        c["values"]["bonds_start"] = [start] * c["n"]
+    assert "warning" not in conclusion([thesis, same])
+    assert "starts the load with 500 intact bonds against 1000, 50 % fewer" in conclusion([thesis, less])
     assert conclusion([thesis]) == "one case only: nothing to compare"
 
 
