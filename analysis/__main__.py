@@ -1,5 +1,6 @@
 """Command line: ``python -m analysis box RUN_DIR|RESULTS.h5 [--out DIR]``; also ``grading``, ``blast``,
-``track``, ``oedometer`` (each defined by its module's ``add_parser``), ``campaign DIR`` (`analysis.campaign`),
+``track``, ``oedometer``, ``oedometer-overlap`` (each defined by its module's ``add_parser``),
+``campaign DIR`` (`analysis.campaign`),
 ``blast-sensitivity DIR`` (`analysis.blast_sensitivity`), ``error-vs-runtime DIR`` (`analysis.error_vs_runtime`),
 ``stability DIR [DIR ...]``
 (`analysis.stability`: exit status 1 when the stability map fails or is not finished) and
@@ -41,8 +42,8 @@ class _Parser(argparse.ArgumentParser):
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from . import blast, blast_sensitivity, box_checks, campaign, error_vs_runtime, grading, oedometer, run_summary, \
-        stability, track, validation
+    from . import blast, blast_sensitivity, box_checks, campaign, error_vs_runtime, grading, oedometer, \
+        oedometer_overlap, run_summary, stability, track, validation
     from .stiffness import LOADING_WINDOW, UNLOADING_FRACTION
 
     parser = _Parser(prog=PROG, description="Analyse pdem HDF5 result files.")
@@ -63,7 +64,7 @@ def build_parser() -> argparse.ArgumentParser:
     box.add_argument("--unload-fraction", type=float, default=UNLOADING_FRACTION,
                      metavar="F", help="part of the force drop used for the unloading "
                                        "stiffness (default: %(default)s)")
-    for module in (grading, blast, track, oedometer, run_summary, validation):
+    for module in (grading, blast, track, oedometer, oedometer_overlap, run_summary, validation):
         module.add_parser(sub)
     campaign.add_parser(sub)
     blast_sensitivity.add_parser(sub)

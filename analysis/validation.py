@@ -669,16 +669,61 @@ def project(steps_done, wall_s, ranks, steps_needed, dt_last=math.nan) -> CostPr
                           wall * ranks / 3600.0)
 
 
+_PROGRESS = re.compile(r"^(?:stage \d+/\d+ (?P<stage>\S+)\s+)?step\s+(?P<step>\d+)\s+t = \S+ s\s+dt = (?P<dt>\S+) s"
+                       r".*?(?P<rate>[0-9.]+) M particle-steps/s")
+_STAGE_START = re.compile(r"^stage (?P<stage>\S+)(?: \(resumed\))?: (?P<n>\d+) spheres, t = ")
+_STAGE_DONE = re.compile(r"^stage (?P<stage>\S+) done at t = \S+ s, step (?P<step>\d+)")
+_RANKS = re.compile(r" on (?P<ranks>\d+) rank\(s\)")
+
+
+def stopped_run_rate(run_dir, stage=None):
+    """(steps, wall [s], ranks, last Δt [s], stage) measured by a run that was stopped (``timeout
+    -s TERM``, a SLURM time limit: no run_info.json) from its log.txt, the last invocation's: the
+    last progress line of ``stage`` (default: the last stage with one) gives the stage's rate in
+    particle-steps/s since its first step (numba's compilation excluded), the stage's line its
+    spheres, and the steps since the stage began (0, or the previous stage's end); the wall time
+    is those steps at that rate. Needs ``run.progress_every`` > 0."""
+    log = Path(run_dir) / "log.txt"
+    if not log.is_file():
+        raise ValidationError(f"{run_dir}: neither run_info.json (a finished run) nor log.txt (a stopped one)")
+    lines = log.read_text(errors="replace").splitlines()
+    starts = [k for k, line in enumerate(lines) if line.startswith("# pdem ")]
+    lines = lines[starts[-1]:] if starts else lines
+    ranks, spheres, begin, last, done = 1, {}, {}, {}, 0
+    for line in lines:
+        if m := _RANKS.search(line):
+            ranks = int(m["ranks"])
+        if m := _STAGE_START.match(line):
+            spheres[m["stage"]] = int(m["n"])
+            begin[m["stage"]] = done
+        elif m := _STAGE_DONE.match(line):
+            done = int(m["step"])
+        elif (m := _PROGRESS.match(line)) and m["stage"]:
+            last[m["stage"]] = (int(m["step"]), float(m["dt"]), float(m["rate"]) * 1e6)
+    name = stage if stage is not None else (list(last)[-1] if last else None)
+    if name not in last or name not in spheres:
+        raise ValidationError(f"{log}: no progress line of stage {name!r} (run.progress_every > 0 prints them)")
+    step, dt, rate = last[name]
+    steps = step - begin[name]
+    return steps, steps * spheres[name] / rate, ranks, dt, name
+
+
 def project_run(run_dir, steps=None, simulated_time=None, stage=None) -> CostProjection:
     """The projection from a short run: the steps and wall time of one finished stage (``stage``,
     default the last one) from its run_info.json, its ranks, and the last Δt of its results.h5
-    series; the steps needed are ``steps`` or ``simulated_time`` / that Δt."""
+    series; the steps needed are ``steps`` or ``simulated_time`` / that Δt. A stopped run (no
+    run_info.json): the rate of its log's last progress line (`stopped_run_rate`)."""
     from pdem.format.read import read_results
 
     run_dir = Path(run_dir)
     info_path = run_dir / "run_info.json"
     if not info_path.is_file():
-        raise ValidationError(f"{run_dir}: no run_info.json (a staged run writes it as its stages end)")
+        done, wall, ranks, dt_last, _ = stopped_run_rate(run_dir, stage)
+        if steps is None:
+            if simulated_time is None:
+                raise ValidationError("give --steps or --simulated-time")
+            steps = simulated_time / dt_last
+        return project(done, wall, ranks, steps, dt_last)
     info = json.loads(info_path.read_text())
     stages = info.get("stages") or []
     names = [st["stage"] for st in stages]
@@ -700,7 +745,8 @@ def add_cost_parser(sub) -> None:
     p = sub.add_parser(
         "cost", help="project a campaign member's cost from a short run",
         description="Measured steps/s of one stage of a short run (its run_info.json; e.g. a member with one "
-                    "load cycle instead of ten) x the steps a full run needs: wall time and core-hours.")
+                    "load cycle instead of ten; or a run stopped by a signal: its log.txt's last progress line) x "
+                    "the steps a full run needs: wall time and core-hours.")
     p.add_argument("results", type=Path, metavar="RUN_DIR", help="the short run's directory")
     p.add_argument("--steps", type=float, help="steps the full run needs")
     p.add_argument("--simulated-time", type=float, metavar="S", help="or: simulated time it needs (÷ last Δt)")

@@ -10,6 +10,9 @@ the rank count (exact sums, max/min reductions).
   (`pdem.checks.diagnostics.max_overlap_ratio`, the guard's)
 - rigid boxes: force of the spheres on each box [N] (exact sums) and centre [m]; the force on a
   box's bottom face apart from the rest (side friction)
+- overlap statistics by group of contacts (`overlap_statistics`): the largest and the mean
+  overlap over the smaller radius [-] of the sphere pairs without a bond, of the intact bonds
+  in compression, and of the spheres on walls, facets and boxes; the intact bonds [-]
 """
 import numpy as np
 
@@ -230,3 +233,55 @@ def box_rest(sim, v_ref):
         f_ratio = max(f_ratio, float(np.linalg.norm(net[free])) / weight if weight > 0 else 0.0)
         v_ratio = max(v_ratio, float(np.linalg.norm(bx.velocity[k][free])) / v_ref)
     return f_ratio, v_ratio
+
+
+OVERLAP_GROUPS = ("pair", "bond", "boundary")  # the groups of `overlap_statistics`, in its order
+
+
+def overlap_statistics(sim):
+    """Overlap δ over the smaller radius r of every real contact in compression (δ > 0), by group
+    (collective; the same bits on any rank count: max reductions, exact sums, integer counts):
+
+    - ``pair``: sphere pairs without an intact bond (members of different grains, fragments,
+      loose spheres; a broken bond's members once they touch again)
+    - ``bond``: sphere pairs with an intact bond (members of one breakable grain pressed together;
+      the geometric overlap, which for a bond made stress free includes the overlap it was made on)
+    - ``boundary``: a sphere on a wall, facet or box (base, cylinder, platen)
+
+    Returns {``<group>_overlap_max``: largest δ/r [-], ``<group>_overlap_mean``: mean δ/r [-]
+    over the group's contacts with δ > 0 (0 for an empty group), ``intact_bonds``: bonds not
+    broken [-] (each once over the ranks)}. δ is the overlap of the last force computation, as
+    the stability guard's `max_overlap_ratio` (the largest of the three maxima is that)."""
+    p, comm, law = sim.particles, sim.comm, sim.law
+    intact = getattr(law, "intact", None)
+    ratios, groups, bonds = [], [], 0
+    for kind in sim.kinds:
+        c = kind.contacts
+        rows = kind.owned_rows(p.n_local)  # each contact once over the ranks
+        if len(rows) == 0:
+            continue
+        ratio = c.overlap[rows] / kind.min_radius(p.radius, rows)
+        if kind.sphere_pair:
+            bonded = intact(c.params[rows], c.history[rows]) if intact is not None else np.zeros(len(rows), bool)
+            bonds += int(np.count_nonzero(bonded))
+            group = bonded.astype(np.int64)  # 0 pair, 1 bond
+        else:
+            group = np.full(len(rows), 2, np.int64)
+        press = c.overlap[rows] > 0.0
+        ratios.append(ratio[press])
+        groups.append(group[press])
+    ratio = np.concatenate(ratios) if ratios else np.zeros(0)
+    group = np.concatenate(groups) if groups else np.zeros(0, np.int64)
+    n = len(OVERLAP_GROUPS)
+    count = np.asarray(comm.allreduce_sum_int(np.bincount(group, minlength=n).astype(np.int64)))
+    total = comm.exact_sum_groups(ratio[:, None], group, n).reshape(n)
+    largest = np.zeros(n)
+    for g in range(n):
+        if np.any(group == g):
+            largest[g] = float(np.max(ratio[group == g]))
+    largest = np.asarray(comm.allreduce_max(largest), np.float64)
+    out = {"intact_bonds": comm.allreduce_sum_int(bonds)}
+    for g, name in enumerate(OVERLAP_GROUPS):
+        out[f"{name}_overlap_max"] = float(largest[g])
+        out[f"{name}_overlap_mean"] = float(total[g] / count[g]) if count[g] else 0.0
+    return out

@@ -57,6 +57,10 @@ Kind "oedometer" (SPEC 2.2, thesis ch. 4)
     positive magnitude), ``platen_force`` [N] (force of the ballast on the platen, positive
     upward), ``platen_displacement`` [m] (positive downward, zero when loading starts),
     ``max_overlap_ratio`` [-] (the largest overlap over the smaller radius of its pair);
+    by group of contacts in compression (`pdem.driver.observables.overlap_statistics`: ``pair``
+    sphere pairs without a bond, ``bond`` intact bonds, ``boundary`` spheres on the base, wall and
+    platen) ``<group>_overlap_max`` and ``<group>_overlap_mean`` [-] (the largest and the mean
+    overlap over the smaller radius), and ``intact_bonds`` [-];
     ``/fragments`` records "initial", "vibrated", "peak", "unloaded" with breakable clumps.
 Kind "shear_box" (`pdem.scenes.shear_box`)
     ``/series`` `SHEAR_BOX_SERIES`: ``shear_displacement`` [m] of the upper frame along x,
@@ -165,7 +169,9 @@ PREPARATION_SERIES = {"step": "-", "time": "s", "stage": "-", "n_spheres": "-", 
 # the oedometer's load record (kind "oedometer", pdem.scenes.oedometer)
 OEDOMETER_SERIES = {"step": "-", "time": "s", "dt": "s", "platen_load": "N", "platen_force": "N",
                     "platen_displacement": "m", "kinetic_energy": "J", "contacts_per_particle": "-",
-                    "max_overlap_ratio": "-"}
+                    "max_overlap_ratio": "-", "pair_overlap_max": "-", "pair_overlap_mean": "-",
+                    "bond_overlap_max": "-", "bond_overlap_mean": "-", "boundary_overlap_max": "-",
+                    "boundary_overlap_mean": "-", "intact_bonds": "-"}
 # the direct shear box's record (kind "shear_box", pdem.scenes.shear_box)
 SHEAR_BOX_SERIES = {"step": "-", "time": "s", "dt": "s", "shear_displacement": "m", "shear_force": "N",
                     "normal_force": "N", "platen_z": "m"}

@@ -40,7 +40,12 @@ Output in the run directory: ``preparation.h5`` and ``preparation.png`` (the pip
 ``results.h5`` (kind "oedometer", `pdem.format.schema.OEDOMETER_SERIES`: ``platen_load`` [N, the
 program, down], ``platen_force`` [N, force of the ballast on the platen, up],
 ``platen_displacement`` [m, down, zero when loading starts], ``max_overlap_ratio`` [-, the largest
-overlap over the smaller radius of its pair: how far the load pushes the contacts]; with breakable clumps
+overlap over the smaller radius of its pair: how far the load pushes the contacts]; the overlap δ
+over the smaller radius r of the contacts in compression by group (`observables.overlap_statistics`),
+``<group>_overlap_max`` and ``<group>_overlap_mean`` [-, the largest and the mean δ/r] of ``pair``
+(spheres of different grains or fragments, no bond), ``bond`` (intact bonds: members of one grain)
+and ``boundary`` (a sphere on the base, the cylinder or the platen), and ``intact_bonds`` [-, bonds
+not broken: the breakage between samples]; with breakable clumps
 ``/fragments`` records "initial" (after the cut and settling), "vibrated" (after vibrating, if
 any), "peak" (at F_max) and "unloaded" (at the end), and every ``run.fragments_every`` steps),
 the analysis of `analysis.oedometer` in ``analysis/`` (force–displacement PNG, loading and
@@ -288,7 +293,7 @@ def load_sample(sim, reference, load=None):
             "platen_force": float(bx.contact_force[0, 2]),
             "platen_displacement": float(reference - bx.center[0, 2]),
             "kinetic_energy": e["kinetic"] + e["rotational"], "contacts_per_particle": sim.contacts_per_particle(),
-            "max_overlap_ratio": observables.max_overlap_ratio(sim)}
+            "max_overlap_ratio": observables.max_overlap_ratio(sim), **observables.overlap_statistics(sim)}
 
 
 # ---------------------------------------------------------------------------- the run

@@ -1,6 +1,7 @@
 """`analysis.oedometer`: stiffness of a synthetic load-unload record, the identification of E_k by
 equal unloading stiffness (thesis table 4.14) on synthetic data, and the command line on a
-synthetic results file."""
+synthetic results file; `analysis.oedometer_overlap`'s breakage split and conclusion on made-up
+numbers (its figures on a real run: tests/scenes/test_oedometer.py)."""
 import math
 
 import numpy as np
@@ -82,3 +83,45 @@ def test_largest_overlap_is_reported_when_recorded(tmp_path):
     path = write_results(tmp_path / "results.h5", rec, None, attrs)
     assert main(["oedometer", str(path), "--out", str(tmp_path / "a")]) == 0
     assert "largest overlap 0.2 of the smaller radius" in (tmp_path / "a" / "oedometer.txt").read_text()
+
+
+# ---------------------------------------------------------------------------- analysis.oedometer_overlap
+def test_breakage_above_a_threshold_counts_intervals_with_either_end_above():
+    from analysis.oedometer_overlap import breakage_above
+
+    bonds = [100, 100, 90, 90, 60, 55, 55]
+    largest = [0.01, 0.02, 0.04, 0.06, 0.20, 0.03, 0.01]
+    # lost per interval: 0, 10, 0, 30, 5, 0; above 0.05 at the start: (3,4), (4,5); at an end also (2,3)
+    assert breakage_above(bonds, largest, 0.05) == (35.0, 35.0, 45.0)
+    assert breakage_above(bonds, largest, 0.1) == (5.0, 35.0, 45.0)  # only (4,5) starts above; (3,4) ends there
+    assert breakage_above(bonds, largest, 0.03) == (35.0, 45.0, 45.0)  # (1,2) ends above 0.03
+    assert breakage_above(bonds, largest, 0.5) == (0.0, 0.0, 45.0)
+
+
+def test_overlap_conclusion_compares_each_case_with_the_first():
+    from analysis.oedometer_overlap import conclusion
+
+    def case(name, broken, single):
+        return {"case": name, "n": len(broken), "values": {"broken_fraction": broken, "single_mass": single}}
+
+    thesis = case("thesis", [0.30, 0.32, 0.31, 0.29, 0.33], [0.010, 0.012, 0.011, 0.009, 0.013])
+    same = case("identified", [0.31, 0.30, 0.33, 0.29, 0.32], [0.011, 0.010, 0.012, 0.013, 0.009])
+    less = case("identified", [0.05, 0.06, 0.04, 0.05, 0.07], [0.001, 0.002, 0.001, 0.002, 0.001])
+    assert conclusion([thesis, same]).count("no significant difference, not an overlap artefact") == 2
+    assert conclusion([thesis, less]).count("breakage depends on the overlap") == 2
+    assert "fewer than two seeds" in conclusion([thesis, case("identified", [0.1], [0.0])])
+    for c, start in ((thesis, 1000.0), (same, 995.0), (less, 500.0)):
+        c["values"]["bonds_start"] = [start] * c["n"]
+    assert "warning" not in conclusion([thesis, same])
+    assert "starts the load with 500 intact bonds against 1000, 50 % fewer" in conclusion([thesis, less])
+    assert conclusion([thesis]) == "one case only: nothing to compare"
+
+
+def test_overlap_command_names_missing_columns(tmp_path, capsys):
+    """A record without the overlap statistics (pdem < 0.3.0): one line naming the column."""
+    path = write_results(tmp_path / "results.h5", record(), None, {"kind": "oedometer", "scene": "{}",
+                                                                   "pdem_version": "test"})
+    assert main(["oedometer-overlap", str(path), "--out", str(tmp_path / "a")]) == 2
+    err = capsys.readouterr().err
+    assert "intact_bonds" in err and len(err.strip().splitlines()) == 1
+    assert main(["oedometer-overlap", str(path), "--threshold", "1.5"]) == 2

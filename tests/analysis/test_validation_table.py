@@ -218,3 +218,40 @@ def test_track_quantities_are_the_passage_table_and_the_settlement_at_the_larges
     assert np.isnan(V.member_quantity(member, "track.settlement_peak@3"))
     with pytest.raises(V.ValidationError):
         V.member_quantity(member, "track.gap@1")
+
+
+def test_cost_of_a_stopped_run_from_its_log(tmp_path):
+    """A run stopped by a signal has no run_info.json: its log's last progress line (lines as a run
+    stopped with timeout -s TERM printed them, 2026-12-07) gives the rate of the stage it was in."""
+    run = tmp_path / "run"
+    run.mkdir()
+    (run / "log.txt").write_text(
+        "# pdem 0.2.0, 2026-12-07 10:00:00 UTC: pdem run old.toml --out run\n"
+        "pdem 0.2.0: oedometer old.toml on 2 rank(s); stages pour, refill, vibrate, settle, load\n"
+        "stage pour: 10 spheres, t = 0.0000 s, dt = 1.000e-05 s\n"
+        "stage 1/5 pour  step      2000  t = 2.0e-02 s  dt = 1.000e-05 s  contacts/particle = 1.00  "
+        "9.99 M particle-steps/s  ETA 1 s\n"
+        "# pdem 0.2.0, 2026-12-07 15:52:41 UTC: pdem run scene.toml --out run\n"
+        "pdem 0.2.0: oedometer scene.toml on 1 rank(s); stages pour, refill, vibrate, settle, load\n"
+        "stage pour: 24344 spheres, t = 0.0000 s, dt = 2.255e-07 s; poured 179 breakable clumps of 136 spheres\n"
+        "numba: the first step took 0.1 s (compilation or cache load)\n"
+        "stage 1/5 pour  step      2000  t = 4.51058e-04 s  dt = 2.255e-07 s  contacts/particle = 4.59  "
+        "1.08 M particle-steps/s  ETA ≥ 49867 s\n"
+        "stage pour done at t = 1.5000 s, step 3000: unbalanced force ratio 0.01, bed top 200.0 mm\n"
+        "stage refill: 10200 spheres, t = 1.5000 s, dt = 2.255e-07 s; removed\n"
+        "stage 2/5 refill  step      4000  t = 9.02115e-04 s  dt = 2.000e-07 s  contacts/particle = 4.59  "
+        "1.02 M particle-steps/s  ETA ≥ 50774 s\n"
+        "step 4600: stop signal received; writing a checkpoint and stopping (exit status 3)\n")
+    steps, wall, ranks, dt, stage = V.stopped_run_rate(run)
+    assert (steps, ranks, dt, stage) == (1000, 1, 2.0e-7, "refill")
+    assert wall == pytest.approx(1000 * 10200 / 1.02e6)
+    steps, wall, _, dt, _ = V.stopped_run_rate(run, "pour")
+    assert (steps, dt) == (2000, 2.255e-7) and wall == pytest.approx(2000 * 24344 / 1.08e6)
+    p = V.project_run(run, steps=1.0e6)
+    assert p.wall_needed_s == pytest.approx(1.0e6 * 10200 / 1.02e6) and p.core_hours == pytest.approx(
+        p.wall_needed_s / 3600)
+    assert V.project_run(run, simulated_time=0.2).steps_needed == pytest.approx(0.2 / 2.0e-7)
+    with pytest.raises(V.ValidationError, match="progress line"):
+        V.stopped_run_rate(run, "load")
+    with pytest.raises(V.ValidationError, match="log.txt"):
+        V.project_run(tmp_path, steps=1.0)

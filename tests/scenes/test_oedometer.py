@@ -7,8 +7,12 @@ carries the platen (mean ballast force over the load stage = mean load + platen 
 platen's momentum balance); the fragment records "initial", "vibrated", "peak", "unloaded"
 hold the same mass (bonds break, mass stays), the initial one has only intact grains and the
 peak one has broken grains; the grading and stiffness analysis is written. A run resumed from
-the checkpoint at the end of a stage ends with the same bits (series, fragments, bodies).
+the checkpoint at the end of a stage ends with the same bits (series, fragments, bodies). The
+overlap statistics of the load record (issue #32) are the bodies' overlaps of the checkpoint at
+the end of the load, and `python -m analysis oedometer-overlap` gives what a hand computation
+from the results file gives.
 """
+import json
 import math
 import shutil
 
@@ -160,6 +164,127 @@ def test_resume_after_a_stage_checkpoint(r1, tmp_path):
     assert run_differences(r1, got) == []
 
 
+# ---------------------------------------------------------------------------- overlaps (issue #32)
+def _closest_on_triangle(x, a, b, c):
+    """The point of triangle abc closest to x (Ericson, Real-Time Collision Detection 5.1.5)."""
+    ab, ac, ax = b - a, c - a, x - a
+    d1, d2 = ab @ ax, ac @ ax
+    if d1 <= 0 and d2 <= 0:
+        return a
+    d3, d4 = ab @ (x - b), ac @ (x - b)
+    if d3 >= 0 and d4 <= d3:
+        return b
+    if d1 * d4 - d3 * d2 <= 0 and d1 >= 0 and d3 <= 0:
+        return a + d1 / (d1 - d3) * ab
+    d5, d6 = ab @ (x - c), ac @ (x - c)
+    if d6 >= 0 and d5 <= d6:
+        return c
+    if d5 * d2 - d1 * d6 <= 0 and d2 >= 0 and d6 <= 0:
+        return a + d2 / (d2 - d6) * ac
+    va, vb, vc = d3 * d6 - d5 * d4, d5 * d2 - d1 * d6, d1 * d4 - d3 * d2
+    if va <= 0 and d4 - d3 >= 0 and d5 - d6 >= 0:
+        return b + (d4 - d3) / ((d4 - d3) + (d5 - d6)) * (c - b)
+    return a + ab * vb / (va + vb + vc) + ac * vc / (va + vb + vc)
+
+
+def _overlaps_from_checkpoint(path, platen_half):
+    """δ/r of every contact in compression of a checkpoint, by group, from the bodies' positions
+    (not the contact store's overlaps): sphere pairs (bonded where the bond's adhesions are > 0),
+    the base plane z = 0, the cylinder's facets and the platen's bottom face; and the intact bonds."""
+    with h5py.File(path, "r") as f:
+        t = f["tables"]
+        gid, pos, rad = (t["particles"][k][()] for k in ("gid", "pos", "radius"))
+        row = {int(g): k for k, g in enumerate(gid)}
+        con = {k: (t["contacts"][k]["key"][()], t["contacts"][k]["history"][()]) for k in t["contacts"]}
+        tri, fidx = t["facets"]["vertices"][()], list(t["facets"]["index"][()])
+        bottom = float(t["boxes"]["center"][0, 2]) - platen_half
+    key, hist = con["sphere_sphere"]
+    i = np.array([row[int(g)] for g in key >> 32])
+    j = np.array([row[int(g)] for g in key & ((1 << 32) - 1)])
+    ratio = (rad[i] + rad[j] - np.linalg.norm(pos[i] - pos[j], axis=1)) / np.minimum(rad[i], rad[j])
+    bonded = (hist[:, 4] > 0) | (hist[:, 5] > 0)  # cohesive law: a_N, a_T
+    out = {"pair": ratio[~bonded & (ratio > 0)], "bond": ratio[bonded & (ratio > 0)], "bonds": int(bonded.sum())}
+    wall = []
+    for kind in ("sphere_wall", "sphere_facet", "sphere_box"):
+        for g, b in zip(con[kind][0] >> 20, con[kind][0] & ((1 << 20) - 1)):
+            x, r = pos[row[int(g)]], rad[row[int(g)]]
+            d = (x[2] if kind == "sphere_wall" else bottom - x[2] if kind == "sphere_box"
+                 else np.linalg.norm(x - _closest_on_triangle(x, *tri[fidx.index(b)])))
+            wall.append((r - d) / r)
+    out["boundary"] = np.array([w for w in wall if w > 0])
+    return out
+
+
+@pytest.mark.slow
+def test_overlap_statistics_are_the_bodies_overlaps(r1):
+    """slow: uses the run of `test_platen_follows_the_program`. The load record's overlap statistics
+    at its last row (the end of the load stage) against the same figures computed from the bodies'
+    positions in the checkpoint written there (one step's motion apart: 1e-4 of the radius); the
+    largest of the three groups is the guard's max_overlap_ratio at every row; the intact bonds
+    at the start of the load are the grains' bonds counted from the grain's members (all whole,
+    `test_fragments_and_grading`), and they only decrease."""
+    c = oedometer.settings(oedometer_ci_doc())
+    with h5py.File(r1 / "results.h5", "r") as f:
+        s = {k: f["series"][k][()] for k in f["series"]}
+        n_grains = len(f["fragments"]["vibrated"]["n_members"][()])
+    step, ckpt = list_checkpoints(r1 / "checkpoints")[-1]
+    assert s["step"][-1] == step
+    got = _overlaps_from_checkpoint(ckpt, 0.5 * c["platen_thickness"])
+    for g in ("pair", "bond", "boundary"):
+        assert len(got[g]) > 0
+        assert s[f"{g}_overlap_max"][-1] == pytest.approx(got[g].max(), abs=1e-4), g
+        assert s[f"{g}_overlap_mean"][-1] == pytest.approx(got[g].mean(), rel=0.02, abs=1e-5), g
+    assert s["intact_bonds"][-1] == got["bonds"]
+    largest = np.max([s[f"{g}_overlap_max"] for g in ("pair", "bond", "boundary")], axis=0)
+    assert np.array_equal(largest, s["max_overlap_ratio"])
+    m = c["grain"]["members"]
+    d = np.linalg.norm(m[:, None] - m[None], axis=2)
+    touching = np.triu(d <= (c["grain"]["member_radii"][:, None] + c["grain"]["member_radii"][None]) * (1 + 1e-9), 1)
+    assert s["intact_bonds"][0] == n_grains * int(touching.sum())
+    assert np.all(np.diff(s["intact_bonds"]) <= 0) and s["intact_bonds"][-1] < s["intact_bonds"][0]
+
+
+@pytest.mark.slow
+def test_overlap_analysis_against_hand_computation(r1, tmp_path):
+    """slow: `python -m analysis oedometer-overlap` on the run of `test_platen_follows_the_program`
+    against the same figures computed here from the file: the bonds broken while the largest
+    overlap exceeded θ (a plain loop over the samples), the grading by mass and by number of the
+    "unloaded" record, the overlaps at the peak load."""
+    from analysis.__main__ import main
+
+    assert main(["oedometer-overlap", str(r1), "--out", str(tmp_path), "--threshold", "0.05", "0.1"]) == 0
+    got = json.loads((tmp_path / "overlap.json").read_text())["runs"][str(r1)]
+    assert (tmp_path / "overlap.png").stat().st_size > 1000
+    assert "threshold 0.1 r" in (tmp_path / "overlap.txt").read_text()
+    with h5py.File(r1 / "results.h5", "r") as f:
+        s = {k: f["series"][k][()] for k in f["series"]}
+        n, mass = (f["fragments"]["unloaded"][k][()] for k in ("n_members", "mass"))
+    largest = s["max_overlap_ratio"]  # = the largest of the three groups (the test above)
+    bonds = s["intact_bonds"]
+    for th, entry in zip((0.05, 0.1), got["thresholds"]):
+        before = above = total = 0.0
+        for k in range(1, len(bonds)):
+            lost = bonds[k - 1] - bonds[k]
+            total += lost
+            before += lost if largest[k - 1] > th else 0.0
+            above += lost if largest[k - 1] > th or largest[k] > th else 0.0
+        assert total > 0 and entry["share_above"] == pytest.approx(above / total, rel=1e-12)
+        assert entry["share_before"] == pytest.approx(before / total, rel=1e-12)
+        assert entry["first_load"] == s["platen_load"][np.argmax(largest > th)]
+    assert got["bonds_broken"] == bonds[0] - bonds[-1]
+    peak = int(np.argmax(s["platen_load"]))
+    assert got["largest_at_peak"] == largest[peak]
+    assert got["groups"]["pair"]["mean_at_peak"] == s["pair_overlap_mean"][peak]
+    large = oedometer.intact_members(oedometer.settings(oedometer_ci_doc()))  # 8 < 135: the grain's size
+    after = got["grading"]["after"]
+    assert got["large"] == large and after["label"] == "unloaded"
+    assert after["single_mass"] == pytest.approx(mass[n == 1].sum() / mass.sum(), rel=1e-12)
+    assert after["large_mass"] == pytest.approx(mass[n >= large].sum() / mass.sum(), rel=1e-12)
+    assert after["single_number"] == pytest.approx(np.count_nonzero(n == 1) / len(n), rel=1e-12)
+    assert after["large_number"] == pytest.approx(np.count_nonzero(n >= large) / len(n), rel=1e-12)
+    assert 0 < after["single_mass"] < 1 and got["grading"]["before"]["large_mass"] == 1.0
+
+
 def test_bond_push_is_the_overlap_force_over_the_normal_strength():
     """k_n δ / a_N = E r (2r − s) / (c r²) for equal members r a grid spacing s apart."""
     doc = oedometer_ci_doc()
@@ -272,3 +397,84 @@ def test_the_thesis_grain_job_is_the_scaled_job_with_the_grain_and_preparation_o
     assert grain == {"shape": "ellipsoid", "radii": [0.024] * 3, "member_radius": 0.0036, "member_spacing": 0.0067,
                      "breakable": True, "stress_free": False}
     assert preparation == {"bond_boost": 10.0, "bond_boost_time": 0.05, "lattice_gap": 0.1}
+
+
+def _campaign_docs(name):
+    """{case: the scene of its seed-1 member} of jobs/campaigns/<name>.toml."""
+    from pdem.campaign.spec import load_campaign
+
+    camp = load_campaign(OEDOMETER_CI_JOB.parent / "campaigns" / f"{name}.toml", out="/nonexistent")
+    return {m.params["case"]: m.doc for m in camp.members if m.params["oedometer.seed"] == 1}
+
+
+def test_the_unscaled_thesis_grain_job_is_the_scaled_one_unscaled():
+    """jobs/oedometer_breakable_thesis_grain.toml (the overlap study's base) is the scaled thesis-grain
+    job with E_k, c and forces x 100 and the load's time / 10: table 4.15 (5.55e9 Pa, 162.04 MPa,
+    250 N -> 1.5 MN) in 0.2 s; the preparation's times kept; the samples every 10x the steps."""
+    import tomllib
+
+    jobs = OEDOMETER_CI_JOB.parent
+    scaled, full = (tomllib.loads((jobs / f"oedometer_breakable{suffix}.toml").read_text())
+                    for suffix in ("_scaled_thesis_grain", "_thesis_grain"))
+    oedometer.check(full)
+    ballast, load = full["materials"]["ballast"], full["oedometer"]
+    assert (ballast["young"], ballast["normal_cohesion"]) == (5.55e9, 162.04e6)
+    assert (load["f_min"], load["f_max"], load["load_time"]) == (250.0, 1.5e6, 0.2)
+    for name, m in scaled["materials"].items():
+        for k in ("young", "normal_cohesion", "shear_cohesion"):
+            assert full["materials"][name][k] == pytest.approx(100 * m[k], rel=1e-12)
+            m[k] = full["materials"][name][k]
+    for k in ("f_min", "f_max"):
+        assert full["oedometer"][k] == pytest.approx(100 * scaled["oedometer"][k], rel=1e-12)
+        scaled["oedometer"][k] = full["oedometer"][k]
+    assert full["oedometer"]["load_time"] == pytest.approx(scaled["oedometer"]["load_time"] / 10, rel=1e-12)
+    scaled["oedometer"]["load_time"] = full["oedometer"]["load_time"]
+    assert full["run"]["output_every"] == 10 * scaled["run"]["output_every"]
+    scaled["run"].update(output_every=full["run"]["output_every"], checkpoint_every_s=full["run"]["checkpoint_every_s"])
+    assert full == scaled
+
+
+def test_the_overlap_campaign_cases_differ_by_the_grains_preparation_and_the_modulus():
+    """jobs/campaigns/validation_oedometer_overlap.toml: "thesis" is its base (the thesis's grain,
+    Yade's bonds pushing 4.8 a_N, held tenfold); "thesis_expanded" the same grain as it is after
+    that preparation (its 136 members 7.2 mm apart: positions x 7.2/6.7; touching, no push, no
+    boost) poured on the same lattice sites; "identified" that with E_k = 5.55e11 Pa (thesis
+    eq. 4.2, 100x) and steel 10 E_k. Nothing else differs."""
+    docs = _campaign_docs("validation_oedometer_overlap")
+    thesis, expanded, identified = docs["thesis"], docs["thesis_expanded"], docs["identified"]
+    c0, c1 = oedometer.settings(thesis), oedometer.settings(expanded)
+    assert len(c1["grain"]["members"]) == len(c0["grain"]["members"]) == 136
+    np.testing.assert_allclose(np.sort(c1["grain"]["members"], axis=0),
+                               np.sort(c0["grain"]["members"] * 7.2 / 6.7, axis=0), atol=1e-12)
+    assert oedometer.bond_push(thesis, c0) > 1.0 and oedometer.bond_push(expanded, c1) < 1e-9
+    s0 = np.array([g[0].mean(axis=0) for g in oedometer.grain_fill(c0, 1)])
+    s1 = np.array([g[0].mean(axis=0) for g in oedometer.grain_fill(c1, 1)])
+    assert s0.shape == s1.shape and np.abs(s0 - s1).max() < 1e-5  # the same pour, seed for seed
+    assert [identified["materials"][m]["young"] for m in ("ballast", "steel")] == [5.55e11, 5.55e12]
+    for m in ("ballast", "steel"):
+        assert identified["materials"][m]["young"] == pytest.approx(100 * expanded["materials"][m]["young"], rel=1e-12)
+        identified["materials"][m]["young"] = expanded["materials"][m]["young"]
+    assert identified == expanded
+    for k in ("clumps", "bond_boost", "lattice_gap"):
+        expanded["oedometer"].pop(k), thesis["oedometer"].pop(k)
+    assert expanded == thesis
+
+
+def test_the_reduced_overlap_campaign_keeps_table_4_15_dimensionless():
+    """jobs/campaigns/oedometer_overlap_reduced.toml: its base (jobs/oedometer_overlap_reduced.toml)
+    has table 4.15's c/E_k and F_max/(E_k A) and the thesis's load in natural periods (0.2 s x
+    1/sqrt(1e-3)); its case "identified" is 100x stiffer, loaded in the same natural periods
+    (the load's time / 10), nothing else changed."""
+    docs = _campaign_docs("oedometer_overlap_reduced")
+    soft, stiff = docs["thesis_expanded"], docs["identified"]
+    m, c = soft["materials"]["ballast"], soft["oedometer"]
+    assert m["normal_cohesion"] / m["young"] == pytest.approx(162.04e6 / 5.55e9, rel=1e-12)
+    area = math.pi * (c["diameter"] / 2) ** 2
+    assert c["f_max"] / (m["young"] * area) == pytest.approx(1.5e6 / (5.55e9 * math.pi * 0.15**2), rel=1e-4)
+    assert c["load_time"] == pytest.approx(0.2 / math.sqrt(1e-3), rel=1e-4)
+    for name in ("ballast", "steel"):
+        assert stiff["materials"][name]["young"] == pytest.approx(100 * soft["materials"][name]["young"], rel=1e-12)
+        stiff["materials"][name]["young"] = soft["materials"][name]["young"]
+    assert stiff["oedometer"]["load_time"] == pytest.approx(c["load_time"] / 10, rel=1e-4)
+    stiff["oedometer"]["load_time"] = c["load_time"]
+    assert stiff == soft
