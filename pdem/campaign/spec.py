@@ -311,8 +311,17 @@ def _list_of_tables(path, raw, key):
     return v
 
 
+# the most members a campaign may expand to: a SLURM array holds at most MaxArraySize − 1 tasks
+# (1 000 by default, some sites 10 000 or more), and every member is checked when it is expanded
+MAX_MEMBERS = 10000
+
+
 def expand(camp, base_doc):
     """The members of a campaign (the cross product of its factors), each checked."""
+    n = math.prod(len(levels) for _, levels in camp.factors)
+    if n > MAX_MEMBERS:
+        raise _err(camp.path, f"expands to {n} members (the product of its cases, grids and seeds): at most "
+                              f"{MAX_MEMBERS}; split it into several campaigns")
     short = short_names(camp.varied)
     widths = {}
     for kind, levels in camp.factors:
