@@ -234,6 +234,8 @@ def load_campaign(path, out=None):
                         else None)
             if seed_key is None:
                 raise _err(path, "seeds.key: required (the base scene has no [box_test] or [deposition] table)")
+        elif not isinstance(seed_key, str) or not seed_key:
+            raise _err(path, f"seeds.key = {seed_key!r}: must be a dotted scene key as text, e.g. \"oedometer.seed\"")
         if "values" in seeds and "count" in seeds:
             raise _err(path, "seeds: give either values or count (and first), not both")
         if "values" in seeds:

@@ -224,6 +224,7 @@ def test_another_campaigns_directory_is_refused(tmp_path, tiny):
     ('[seeds]\nvalues = [1]\n[set]\n"deposition.seed" = 4', r"set.deposition.seed: also varied"),
     ('[seeds]\nvalues = [1]\n[[case]]\nname = "x"\ndeposition.seed = 4', r"case\[0\].deposition.seed: also varied"),
     ('[[grid]]\n"simulation.damping" = [-1.0]', r"damping"),
+    ("[seeds]\nkey = 7.5\ncount = 2", r"seeds.key = 7.5: must be a dotted scene key as text"),
     ('[[grid]]\n"simulation.damping" = [0.1, 0.2, 0.3]\n[seeds]\ncount = 3334',
      r"expands to 10002 members \(the product of its cases, grids and seeds\): at most 10000"),
 ])
