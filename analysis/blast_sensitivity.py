@@ -42,7 +42,7 @@ from pdem.format.groups import read_blast
 from pdem.format.read import ResultFileError, read_series
 
 from .blast import PAPER, PAPER_INPUT_IMPULSE, analyse_blast, paper_plate
-from .campaign import CampaignError, group_members, read_campaign, stats
+from .campaign import CampaignError, group_members, interval_text, read_campaign, stats
 
 TOLERANCE = 0.05
 VARIANTS = (("amplification", "with the static weight", "I_s = ∫σ0 dt"),
@@ -171,14 +171,6 @@ def conclusion(result) -> str:
 
 
 # ---------------------------------------------------------------------------- output
-def _interval(e) -> str:
-    if not math.isfinite(e["mean"]):
-        return "-"
-    if not math.isfinite(e["ci_low"]):
-        return f"{e['mean']:.4g} (n = {e['n']})"
-    return f"{e['mean']:.4g} [{e['ci_low']:.4g}, {e['ci_high']:.4g}]"
-
-
 def lines(result) -> list[str]:
     conf = f"{100 * result['confidence']:g} %"
     out = [f"blast sensitivity: campaign {result['campaign']} ({result['dir']}): {result['members']} members, "
@@ -193,7 +185,7 @@ def lines(result) -> list[str]:
     for name, label, formula in VARIANTS:
         out.append(f"{label} ({formula}):")
         head = ["case", "n"] + [f"{m:g} kg/m^2" for m in PLATES] + ["dist", "heavy-middle", "reaches"]
-        rows = [[c["case"], str(c["n"])] + [_interval(c["variants"][name]["plates"][m]) for m in PLATES]
+        rows = [[c["case"], str(c["n"])] + [interval_text(c["variants"][name]["plates"][m]) for m in PLATES]
                 + [f"{100 * c['variants'][name]['distance']:.1f} %",
                    f"{100 * c['variants'][name]['heavy_minus_middle']:+.1f} %",
                    "yes" if c["variants"][name]["reaches_paper"] else "no"] for c in result["cases"]]

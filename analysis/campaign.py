@@ -27,6 +27,7 @@ scipy (through `analysis.variability`), `pdem.format` and, for the plots, matplo
 from __future__ import annotations
 
 import json
+import math
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -276,6 +277,15 @@ def stats(values, confidence):
     nan = float("nan")
     mean = float(v[0]) if len(v) else nan
     return {"n": len(v), "mean": mean, "std": nan, "cov": nan, "ci_low": nan, "ci_high": nan, "min": mean, "max": mean}
+
+
+def interval_text(e) -> str:
+    """A `stats` entry as text: "mean [ci_low, ci_high]", "mean (n = 1)" without an interval, "-"."""
+    if not math.isfinite(e["mean"]):
+        return "-"
+    if not math.isfinite(e["ci_low"]):
+        return f"{e['mean']:.4g} (n = {e['n']})"
+    return f"{e['mean']:.4g} [{e['ci_low']:.4g}, {e['ci_high']:.4g}]"
 
 
 def display(units):

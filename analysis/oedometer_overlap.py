@@ -66,7 +66,7 @@ import numpy as np
 from pdem.format.groups import read_fragments
 from pdem.format.read import ResultFileError, read_finite, results_file
 
-from .campaign import CampaignError, group_members, read_campaign, stats
+from .campaign import CampaignError, group_members, interval_text, read_campaign, stats
 from .figures import default_out, figure, save
 from .grading import INTACT_MEMBERS, summarise
 
@@ -276,14 +276,6 @@ def run_lines(name, r) -> list[str]:
     return out
 
 
-def _interval(e) -> str:
-    if not math.isfinite(e["mean"]):
-        return "-"
-    if not math.isfinite(e["ci_low"]):
-        return f"{e['mean']:.4g} (n = {e['n']})"
-    return f"{e['mean']:.4g} [{e['ci_low']:.4g}, {e['ci_high']:.4g}]"
-
-
 def campaign_lines(result) -> list[str]:
     conf = f"{100 * result['confidence']:g} %"
     out = [f"oedometer overlap: campaign {result['campaign']} ({result['dir']}), "
@@ -295,7 +287,7 @@ def campaign_lines(result) -> list[str]:
     width = max(len(k) for k in keys)
     for c in result["cases"]:
         out.append(f"case {c['case']} (n = {c['n']}: {', '.join(c['members'])}):")
-        out += [f"  {k:<{width}}  {_interval(c['stats'][k])}" for k in keys]
+        out += [f"  {k:<{width}}  {interval_text(c['stats'][k])}" for k in keys]
     out.append("")
     for name, r in result["runs"].items():
         out += run_lines(name, r) + [""]
