@@ -4,7 +4,8 @@
 ``blast-sensitivity DIR`` (`analysis.blast_sensitivity`), ``error-vs-runtime DIR`` (`analysis.error_vs_runtime`),
 ``stability DIR [DIR ...]``
 (`analysis.stability`: exit status 1 when the stability map fails or is not finished) and
-``box-checks CALIBRATION_DIR CHECKS_DIR`` (`analysis.box_checks`) and ``validate``
+``box-checks CALIBRATION_DIR CHECKS_DIR`` (`analysis.box_checks`),
+``box-thesis-procedure SOFT_DIR FULL_DIR`` (`analysis.box_thesis_procedure`) and ``validate``
 (`analysis.validation`: the validation table from jobs/validation/rows.toml).
 
 This module owns the CLI only: argument parsing, the output directory and exit status. Bad
@@ -42,8 +43,8 @@ class _Parser(argparse.ArgumentParser):
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from . import blast, blast_sensitivity, box_checks, campaign, error_vs_runtime, grading, oedometer, \
-        oedometer_overlap, run_summary, stability, track, validation
+    from . import blast, blast_sensitivity, box_checks, box_thesis_procedure, campaign, error_vs_runtime, grading, \
+        oedometer, oedometer_overlap, run_summary, stability, track, validation
     from .stiffness import LOADING_WINDOW, UNLOADING_FRACTION
 
     parser = _Parser(prog=PROG, description="Analyse pdem HDF5 result files.")
@@ -69,6 +70,7 @@ def build_parser() -> argparse.ArgumentParser:
     campaign.add_parser(sub)
     blast_sensitivity.add_parser(sub)
     box_checks.add_parser(sub)
+    box_thesis_procedure.add_parser(sub)
     error_vs_runtime.add_parser(sub)
     stability.add_parser(sub)
     return parser
@@ -83,7 +85,8 @@ def main(argv=None) -> int:
     if args.command is None:
         parser.print_help(sys.stderr)
         return EXIT_BAD_INPUT
-    if args.command in ("campaign", "blast-sensitivity", "error-vs-runtime", "stability", "box-checks"):
+    if args.command in ("campaign", "blast-sensitivity", "error-vs-runtime", "stability", "box-checks",
+                        "box-thesis-procedure"):
         return _run_campaign(args)
     from . import validation
     from .summary import run_box
@@ -104,17 +107,19 @@ def main(argv=None) -> int:
 
 
 def _run_campaign(args) -> int:
-    from . import blast_sensitivity, box_checks, campaign, error_vs_runtime, stability
+    from . import blast_sensitivity, box_checks, box_thesis_procedure, campaign, error_vs_runtime, stability
 
     module = {"campaign": campaign, "blast-sensitivity": blast_sensitivity, "error-vs-runtime": error_vs_runtime,
-              "stability": stability, "box-checks": box_checks}[args.command]
+              "stability": stability, "box-checks": box_checks,
+              "box-thesis-procedure": box_thesis_procedure}[args.command]
     try:
         written = module.run(args)
     except (campaign.CampaignError, ResultFileError) as err:
         return _fail(str(err))
     except (ValueError, OSError) as err:
         where = (" ".join(map(str, args.dirs)) if hasattr(args, "dirs") else
-                 f"{args.calibration} {args.checks}" if hasattr(args, "checks") else args.dir)
+                 f"{args.calibration} {args.checks}" if hasattr(args, "checks") else
+                 f"{args.soft} {args.full}" if hasattr(args, "full") else args.dir)
         return _fail(f"{where}: {_one_line(err)}")
     status = 0
     if args.command == "stability":  # (files, passed): the map's verdict is the exit status
