@@ -1,7 +1,7 @@
 """``python -m analysis box-thesis-procedure`` on synthetic soft and full-stiffness campaigns with
 known answers: each stiffness is calibrated on its own target (the case nearest it), a target is
 met when it lies in the case's interval of the mean, the unfitted quantities (end of the cycle,
-rebound) are judged against the lab, and the verdict says when no option set fits both."""
+end − peak) are judged against the lab, and the verdict says when no option set fits both."""
 import importlib.util
 import json
 from pathlib import Path
@@ -36,10 +36,10 @@ def test_each_stiffness_is_calibrated_on_its_own_target_and_no_set_fits_both(tmp
     assert d["cases"] == ["vibrated_0.0", "vibrated_0.5"]
     assert d["chosen_soft"] == "vibrated_0.0" and d["chosen_full"] == "vibrated_0.0"
     assert d["full_values"]["vibrated_0.0"]["peak"]["mean"] == pytest.approx(LAB_PEAK)
-    assert d["fits"]["vibrated_0.0"] == {"thesis": False, "lab_peak": True, "lab_end": False, "lab_rebound": False}
+    assert d["fits"]["vibrated_0.0"] == {"thesis": False, "lab_peak": True, "lab_end": False, "lab_after_peak": False}
     assert d["fits_both"] == []
-    # rebound = max - end = 0.2 x 1.2 x 17 mm = 4.08 mm
-    assert d["full_values"]["vibrated_0.0"]["rebound"]["mean"] == pytest.approx(0.2 * 1.2 * 0.017)
+    # end - peak = (0.8 x 1.2 - 1) x 17 mm = -0.68 mm (the lab: -2 mm)
+    assert d["full_values"]["vibrated_0.0"]["after_peak"]["mean"] == pytest.approx((0.8 * 1.2 - 1) * 0.017)
 
 
 def test_a_set_inside_both_targets_fits_both(tmp_path):
@@ -55,13 +55,14 @@ def test_covers_is_the_interval_meeting_the_target():
 
 
 def test_the_command_writes_table_json_and_plot_and_refuses_a_case_without_the_knob(tmp_path, capsys):
-    soft = campaign(tmp_path / "soft", {0.0: 0.040, 0.5: 0.030})
+    soft = campaign(tmp_path / "soft", {0.0: 0.040, 0.25: 0.035, 0.5: 0.030})  # 0.25 not run at full stiffness
     full = campaign(tmp_path / "full", {0.0: 0.017, 0.5: 0.001})
     assert main(["box-thesis-procedure", str(soft), str(full), "--out", str(tmp_path / "out")]) == 0
     out = tmp_path / "out"
     assert (out / "thesis_procedure.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     text = (out / "thesis_procedure.md").read_text()
     assert "No option set fits both" in text and "| vibrated_0.0 | 0 |" in text
+    assert "| vibrated_0.25 | 0.25 | 35 [" in text and "| not run | not run | not run | not run | 3 / 0 |" in text
     assert json.loads((out / "thesis_procedure.json").read_text())["chosen_full"] == "vibrated_0.0"
     bare = campaign(tmp_path / "bare", {0.0: 0.017}, knob=False)
     with pytest.raises(CampaignError, match="does not set box_test.vibration_time"):
