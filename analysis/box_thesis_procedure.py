@@ -95,8 +95,13 @@ def build(soft, full, confidence=0.95):
             "fits_both": [c for c in both if fits[c]["thesis"] and fits[c]["lab_peak"]]}
 
 
+def _scaled(e, f):
+    """`interval_text` of a `stats` entry in other units (its count unscaled)."""
+    return interval_text({k: v if k == "n" else v * f for k, v in e.items()})
+
+
 def _mm(e):
-    return interval_text({k: v * MM for k, v in e.items()})
+    return _scaled(e, MM)
 
 
 def _reached(fit):
@@ -119,7 +124,7 @@ def verdict(d):
     checks = (f"Not fitted, at full stiffness with {cf}: end of cycle 1 {_mm(r['end'])} mm (lab ~15 mm, "
               f"{_reached(d['fits'][cf]['lab_end'])}), end − peak {_mm(r['after_peak'])} mm "
               f"(lab ~−2 mm: {_reached(d['fits'][cf]['lab_after_peak'])}), unloading stiffness "
-              f"{interval_text({k: v * MN for k, v in r['unloading'].items()})} MN/m (the lab's is not in the seeds).")
+              f"{_scaled(r['unloading'], MN)} MN/m (the lab's is not in the seeds).")
     return head + " " + checks
 
 
@@ -127,7 +132,7 @@ def write_table(d, out):
     def cell(side, c, key):
         v = d[side].get(c)
         return "not run" if v is None else (_mm(v[key]) if key != "unloading" else
-                                            interval_text({k: x * MN for k, x in v[key].items()}))
+                                            _scaled(v[key], MN))
 
     def n(side, c):
         return d[side][c]["peak"]["n"] if c in d[side] else 0

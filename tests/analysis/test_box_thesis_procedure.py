@@ -17,12 +17,15 @@ fixtures = importlib.util.module_from_spec(_spec)
 _spec.loader.exec_module(fixtures)
 
 
-def campaign(root, peaks, kept=0.8, knob=True):
+SEEDS = ((1, 1.0), (2, 1.02), (3, 0.98))
+
+
+def campaign(root, peaks, kept=0.8, knob=True, seeds=SEEDS):
     """Cases vibrated_T (T = vibration time [s]) with seeds 1..3 whose settlement at the peak is
     peaks[T] × (1, 1.02, 0.98); settlement_max = 1.2 × peak, end = kept × max."""
     e = []
     for t, p in peaks.items():
-        for seed, f in ((1, 1.0), (2, 1.02), (3, 0.98)):
+        for seed, f in seeds:
             over = {"box_test.vibration_time": t} if knob else {}
             e.append(fixtures.member(root, f"vibrated_{t}_seed-{seed}", f"vibrated_{t}", seed, over, p * f, kept=kept))
     return fixtures.manifest(root, e)
@@ -64,6 +67,9 @@ def test_the_command_writes_table_json_and_plot_and_refuses_a_case_without_the_k
     assert "No option set fits both" in text and "| vibrated_0.0 | 0 |" in text
     assert "| vibrated_0.25 | 0.25 | 35 [" in text and "| not run | not run | not run | not run | 3 / 0 |" in text
     assert json.loads((out / "thesis_procedure.json").read_text())["chosen_full"] == "vibrated_0.0"
+    one = campaign(tmp_path / "one", {0.0: 0.017}, seeds=SEEDS[:1])  # one seed: its count is not scaled to mm
+    assert main(["box-thesis-procedure", str(soft), str(one), "--out", str(tmp_path / "one_out")]) == 0
+    assert "| 17 (n = 1) |" in (tmp_path / "one_out" / "thesis_procedure.md").read_text()
     bare = campaign(tmp_path / "bare", {0.0: 0.017}, knob=False)
     with pytest.raises(CampaignError, match="does not set box_test.vibration_time"):
         build(read_campaign(bare), read_campaign(full))
