@@ -54,6 +54,11 @@ the thesis's order for the track (compact the bed, then cut it and place the sle
                 checkpoint is copied to ``prepared.h5``: the prepared bed, which any number of
                 load programs start from ([traffic] prepared = that file or its run directory)
                 without preparing again.
+   With ``procedure = "refill"`` (the thesis's order, 6.1: vibrate, cut at 350 mm, place the
+   sleeper, refill, vibrate again, cut above the sleeper top) ``refill`` instead cuts the bed at
+   bed_depth, places the sleepers, pours a loose cloud around them (`refill_areas`) and settles,
+   with no slope facets yet; ``vibrate_again`` shakes as ``vibrate``; ``settle_again`` cuts
+   the bed to its shape, places the slope facets and settles; its end is the prepared bed.
    ``stiffen``  (only with ``prep_stiffness_factor`` f < 1, law linear: stages 1-4 then ran with
                 every material's young times f) the stiffness raised to the materials' over
                 ``stiffen_time`` [s], settled (`pdem.scenes.common.stiffening`, the box test's
@@ -96,7 +101,7 @@ from ..build.config import check_keys, run_settings, scene_from_dict
 from ..driver import observables
 from ..driver.fragments import FragmentRecorder
 from ..driver.results import write_root_attrs
-from ..driver.stages import Stage, empty_tables, nothing, scaled_stiffness
+from ..driver.stages import Stage, empty_tables, next_free_gid, nothing, scaled_stiffness
 from ..errors import InputError
 from ..io.checkpoint import CheckpointError, read_checkpoint
 from ..boundaries.loads import ETA_ZERO, AxleTrain, Haversine, SleeperLoad
@@ -132,6 +137,7 @@ DEFAULTS = {
     "sleeper_material": "concrete",
     "sleeper_surface": "flat",          # "flat": a smooth rigid box; "spheres": a closed shell of member spheres
     "sleeper_member_radius": 0.005,     # [m] of the "spheres" surface (`pdem.scenes.common.sleepers`)
+    "procedure": "cut",                 # "cut": compacted to the top, slots cut; "refill": the thesis's 6.1 order
     **PREPARATION_DEFAULTS,
     # full stiffness: prepared at young x prep_stiffness_factor, then `stiffen` (`pdem.scenes.common.stiffening`)
     **STIFFEN_DEFAULTS,
@@ -161,6 +167,7 @@ AXLE_KEYS = {"axle_load", "axles", "speed", "passages", "rest_time", "rail_bendi
 BEAM_KEYS = {"rail_pad_stiffness", "rail_length"}  # rail_model "beam" only
 RAIL_MODELS = ("share", "beam")
 SURFACES = ("flat", "spheres")  # sleeper_surface
+PROCEDURES = ("cut", "refill")  # procedure: how the sleepers are placed (`TrackRun.stage_list`)
 TURNING = {False: "xyZ", True: "yXZ"}  # sleeper_rotation: blocked DOFs of a whole track, a half model
 HAVERSINE_KEYS = {"f_min", "f_max", "frequency", "cycles"}
 WHERE = ("track", "in the track bed")
@@ -187,6 +194,10 @@ def track_settings(doc):
         if not isinstance(c[k], str) or c[k] not in doc.get("materials", {}):
             raise InputError(f"track.{k} = {c[k]!r}: no [materials.{c[k]}] table in the scene file")
     check_preparation("track", c)
+    if c["procedure"] not in PROCEDURES:
+        raise InputError(f"track.procedure = {c['procedure']!r}: must be one of {', '.join(map(repr, PROCEDURES))} "
+                         "('cut': the bed compacted to the sleeper top, the slots cut; 'refill': cut at the sleeper "
+                         "base, sleepers placed, refilled, vibrated again, cut to shape: thesis 6.1)")
     c["grain"] = clump_settings(doc, given)
     c["bond_boost"] = bond_boost_settings(c, given)
     check_stiffening("track", c, doc)
@@ -571,6 +582,22 @@ def in_sleepers(c, pos, r):
     return hit
 
 
+def refill_areas(c):
+    """Rectangles (lo_xy, hi_xy) [m] that procedure "refill" pours into over the bed cut at
+    bed_depth, around the placed sleepers: the cribs between them (and at the track's ends) over
+    the whole width y_lo .. y_toe, and beyond each sleeper end to the toe."""
+    g = profile(c)
+    w, length, _ = c["sleeper_size"]
+    x = sleeper_x(c)
+    edges = [0.0, *[e for xk in x for e in (xk - w / 2, xk + w / 2)], g["length"]]
+    out = [((a, g["y_lo"]), (b, g["y_toe"])) for a, b in zip(edges[::2], edges[1::2]) if b > a]
+    for xk in x:
+        out.append(((xk - w / 2, length / 2), (xk + w / 2, g["y_toe"])))
+        if not c["half"]:
+            out.append(((xk - w / 2, -g["y_toe"]), (xk + w / 2, -length / 2)))
+    return out
+
+
 def slope_facets(c):
     """Triangles (3 vertices each) of the slopes and their vertical lips, on each modelled side."""
     g = profile(c)
@@ -586,13 +613,15 @@ def slope_facets(c):
 
 
 # ---------------------------------------------------------------------------- stage scenes
-def stage_scene(doc, c, tables, sleepers=True, loads=None, centres=None, mass=None, rails=True, stiffness=1.0):
+def stage_scene(doc, c, tables, sleepers=True, loads=None, centres=None, mass=None, rails=True, stiffness=1.0,
+                slopes=True):
     """The `Scene` of a stage holding the spheres of ``tables``: the file's materials and
     settings, the subgrade, end and side walls, and if ``sleepers`` (from ``refill`` on) the
-    slope facets and the sleepers (at ``centres`` if given; loaded by ``loads`` in ``traffic``;
-    each of ``mass`` [kg], default the track's ``body_mass``; turning sleepers with the inertia
-    of `sleeper_inertia`, the rails' point masses in it if ``rails``, and the load at the mean
-    of their rail seats). Every material's stiffness times ``stiffness`` (``prep_stiffness_factor``
+    slope facets (unless not ``slopes``: procedure "refill" before its last cut) and the
+    sleepers (at ``centres`` if given; loaded by ``loads`` in ``traffic``; each of ``mass``
+    [kg], default the track's ``body_mass``; turning sleepers with the inertia of
+    `sleeper_inertia`, the rails' point masses in it if ``rails``, and the load at the mean of
+    their rail seats). Every material's stiffness times ``stiffness`` (``prep_stiffness_factor``
     before ``traffic``)."""
     base = {k: v for k, v in doc.items() if k in ("simulation", "materials")}
     if stiffness != 1.0:
@@ -610,7 +639,7 @@ def stage_scene(doc, c, tables, sleepers=True, loads=None, centres=None, mass=No
     scene.add_wall("y", g["y_lo"], wm, sense=1, name="symmetry" if c["half"] else "y_min")
     scene.add_wall("y", g["y_toe"], wm, sense=-1, name="y_max")
     if sleepers:
-        for k, tri in enumerate(slope_facets(c)):
+        for k, tri in enumerate(slope_facets(c) if slopes else ()):
             scene.add_facet(tri, wm, name=f"slope_{k}")
         start, half = sleeper_boxes(c)
         at = start if centres is None else np.asarray(centres, float)
@@ -698,7 +727,8 @@ class TrackRun(PreparedRun):
         self.rebuilds0 = int(self.meta.get("n_rebuilds", 0)) if self.meta else 0
 
     def stage_list(self):
-        """`PREPARATION` (compacted before the cut), ``stiffen`` if prepared soft
+        """`PREPARATION` (compacted before the cut; with ``procedure = "refill"`` its refill stage
+        replaced by refill, vibrate_again, settle_again), ``stiffen`` if prepared soft
         (``prep_stiffness_factor`` < 1; the prepared bed saved after the last of these), then
         ``traffic`` if a [traffic] table is given."""
         bed = self.bed_scene
@@ -706,8 +736,14 @@ class TrackRun(PreparedRun):
         boost = self.c["bond_boost"] != 1.0
         stages = [pour.then(prepare=self.boost_bonds) if boost else pour,
                   vibrate_stage(self, bed),
-                  settle_stage(self, bed, at_rest=self.bodies_settled),
-                  refill_stage(self, self.stage_scene, self.refill, at_rest=self.bodies_settled)]
+                  settle_stage(self, bed, at_rest=self.bodies_settled)]
+        if self.c["procedure"] == "cut":
+            stages.append(refill_stage(self, self.stage_scene, self.refill, at_rest=self.bodies_settled))
+        else:  # "refill" (thesis 6.1): no slopes until the last cut
+            stages += [refill_stage(self, self.open_scene, self.refill_around, at_rest=self.bodies_settled),
+                       vibrate_stage(self, self.open_scene, name="vibrate_again"),
+                       settle_stage(self, self.stage_scene, "settle_again", open=self.cut_to_shape,
+                                    at_rest=self.bodies_settled)]
         if soft(self.c):  # prepared soft: brought to the materials' stiffness before the traffic
             stages.append(stiffen_stage(self, self.stage_scene, at_rest=self.bodies_settled))
         stages[-1] = replace(stages[-1], saved=self.save_prepared_bed)
@@ -804,15 +840,45 @@ class TrackRun(PreparedRun):
                         f"the slopes{whole}), cleared {c['sleepers']} sleeper slot(s) ({slots} spheres), placed the "
                         "sleepers and the slope facets")
 
+    def refill_around(self, tables):
+        """Procedure "refill" (thesis 6.1: „Po uklidnění simulace jsou odstraněna zrna nad úrovní
+        350 mm a je přidán železobetonový pražec … Následně je model dosypán dalším kamenivem“):
+        the bed cut at bed_depth, the sleepers placed on it, a loose cloud poured around them
+        (`refill_areas`, up to z_top times the overfill)."""
+        c, doc = self.c, self.doc
+        tables, cut = remove_where(tables, lambda pos, r: pos[:, 2] + r > c["bed_depth"])
+        n0 = len(tables["particles"]["gid"])
+        rise = profile(c)["z_top"] - c["bed_depth"]
+        gid = self.state["next_gid"]  # (the cut's gids are not reused)
+        for k, (lo, hi) in enumerate(refill_areas(c)):
+            tables = add_cloud(tables, doc, c, lo, hi, c["bed_depth"], (hi[0] - lo[0]) * (hi[1] - lo[1]) * rise,
+                               c["seed"] + 1000 + k, gid, WHERE)
+            gid = next_free_gid(tables, gid)
+        what = "spheres" if c["grain"] is None else "spheres (whole clumps)"
+        return tables, (f"cut the bed at bed_depth = {c['bed_depth']:g} m ({cut} {what}), placed the sleepers, "
+                        f"poured {len(tables['particles']['gid']) - n0} spheres around them")
+
+    def cut_to_shape(self, tables):
+        """Procedure "refill", after the second vibration (thesis 6.1: „Po opětovném zvibrování je
+        odstraněno kamenivo nad horní úrovní pražce“): the bed cut to its shape and the slope
+        facets placed."""
+        tables, cut = remove_where(tables, lambda pos, r: outside_bed(self.c, pos, r))
+        return tables, (f"cut the bed to its shape ({cut} spheres above z_top = {profile(self.c)['z_top']:g} m or "
+                        "beyond the slopes), placed the slope facets")
+
+    def open_scene(self, tables):
+        """Procedure "refill" before its last cut: the sleepers, no slope facets yet."""
+        return self.stage_scene(tables, slopes=False)
+
     def bed_scene(self, tables):
         """The scene before the cut: no sleepers yet (at the preparation's stiffness)."""
         return stage_scene(self.doc, self.c, tables, sleepers=False, stiffness=self.c["prep_stiffness_factor"])
 
-    def stage_scene(self, tables, loads=None):
+    def stage_scene(self, tables, loads=None, slopes=True):
         """The scene with the sleepers, at the preparation's stiffness (refill, stiffen)."""
         centres = tables["boxes"]["center"] if "boxes" in tables else None
         return stage_scene(self.doc, self.c, tables, loads=loads, centres=centres,
-                           stiffness=self.c["prep_stiffness_factor"])
+                           stiffness=self.c["prep_stiffness_factor"], slopes=slopes)
 
     def traffic_scene(self, tables):
         """The scene with the sleepers under the load program (λ_D ``traffic.damping`` if given)."""
@@ -1051,7 +1117,7 @@ class TrackRun(PreparedRun):
         traffic = self.t is not None and (self.out / "results.h5").exists()
         super().finish(sim, wall_s, summary="track", title="track section", about=about,
                        stage_columns=[("sleeper_z", "sleeper centre z [m]", ".4f"), ("balance", "balance", ".3f")],
-                       preparation=None if prepared else {"stages": list(self.STAGES[:len(PREPARATION) + soft(c)]),
+                       preparation=None if prepared else {"stages": [s for s in self.STAGES if s != "traffic"],
                                                         "body": "sleeper centre"},
                        notes=balance_lines(self.write_scaling(sim, wall_s))
                        + (["", f"traffic: {self.traffic_text()}"] if traffic else []),

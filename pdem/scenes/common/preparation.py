@@ -323,9 +323,9 @@ def refill_stage(run, scene, refill, at_rest=always):
     return settle_stage(run, scene, "refill", refill, at_rest)
 
 
-def vibrate_stage(run, scene, trim=keep_tables):
-    """``vibrate``: ``trim`` (tables → (tables, note)) removes what sticks out; then shake for
-    ``vibration_time`` [s] with the friction lowered (none if 0)."""
+def vibrate_stage(run, scene, trim=keep_tables, name="vibrate"):
+    """``vibrate`` (or ``name``): ``trim`` (tables → (tables, note)) removes what sticks out; then
+    shake for ``vibration_time`` [s] with the friction lowered (none if 0)."""
     c = run.c
     existing = c["vibration_friction_contacts"] == "all"
 
@@ -348,8 +348,8 @@ def vibrate_stage(run, scene, trim=keep_tables):
 
     def close(sim):
         sim.set_friction_scale(1.0, existing=existing)
-        run.stage_done(sim, "vibrate")
+        run.stage_done(sim, name)
         run.prep.append(run.prep_sample(sim))
 
-    return Stage("vibrate", scene, program, open=trim, prepare=prepare, close=close, record=run.stage_record,
+    return Stage(name, scene, program, open=trim, prepare=prepare, close=close, record=run.stage_record,
                  max_steps=0 if c["vibration_time"] == 0 else 10**15, length=(c["vibration_time"], True))
