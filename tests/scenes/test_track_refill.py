@@ -73,6 +73,7 @@ def stage_end(out, name):
     raise AssertionError(f"no checkpoint at the end of stage {name} in {out}")
 
 
+@pytest.mark.slow
 def test_the_thesis_order_runs_and_its_counts_come_from_the_files(tmp_path):
     scene = tmp_path / "refill.toml"
     scene.write_text(REFILL)
@@ -102,6 +103,7 @@ def test_the_thesis_order_runs_and_its_counts_come_from_the_files(tmp_path):
     assert np.all(base < c["bed_depth"]) and np.all(base > 0.5 * c["bed_depth"])
 
 
+@pytest.mark.slow
 @needs_mpiexec
 def test_the_thesis_order_gives_the_same_bits_on_2_ranks(tmp_path):
     scene = tmp_path / "refill.toml"
