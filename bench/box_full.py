@@ -73,17 +73,23 @@ def timing(stdout):
     return {k: float(found.get(k, 0.0)) for k in SPLIT}
 
 
+def stiffened_copy(case, step, run):
+    """``run``: a copy of the case's cached run cut back to its checkpoint at ``step`` (the end of
+    the stiffen stage), for ``pdem run`` to resume."""
+    shutil.copytree(HERE / "cache" / case / "run", run)
+    for ck in (run / "checkpoints").glob("ckpt_*.h5"):
+        if int(ck.stem.split("_")[1]) > step:
+            ck.unlink()
+    return run
+
+
 def resumed(case, ranks, step, steps):
     """(wall time [s], {section: seconds}) of ``steps`` load steps on ``ranks`` ranks from the
     stiffened checkpoint: the differences of a run to step + WARMUP and one to step + WARMUP + steps."""
     runs = []
     for n in (WARMUP, WARMUP + steps):
         with tempfile.TemporaryDirectory(prefix="pdem-bench-full-") as tmp:
-            run = Path(tmp) / "run"
-            shutil.copytree(HERE / "cache" / case / "run", run)
-            for ck in (run / "checkpoints").glob("ckpt_*.h5"):
-                if int(ck.stem.split("_")[1]) > step:
-                    ck.unlink()
+            run = stiffened_copy(case, step, Path(tmp) / "run")
             runs.append(pdem_run(CASES[case][0], ranks, run, step + n))
     (w0, out0), (w1, out1) = runs
     t0, t1 = timing(out0), timing(out1)

@@ -14,8 +14,6 @@ and the call sites by time per step [µs]. One thread; keep the other cores idle
 import argparse
 import contextlib
 import io
-import re
-import shutil
 import sys
 import tempfile
 import time
@@ -24,9 +22,7 @@ from pathlib import Path
 import numba
 from numba.core.registry import CPUDispatcher
 
-from bench.box_full import CASES, HERE, WARMUP, stiffened
-
-ROOT = HERE.parent
+from bench.box_full import CASES, ROOT, WARMUP, stiffened, stiffened_copy, timing
 
 
 class CallTimes:
@@ -90,11 +86,7 @@ def main(argv=None):
     step, _ = stiffened(a.case)
     scene = str(ROOT / "jobs" / CASES[a.case][0])
     with tempfile.TemporaryDirectory(prefix="pdem-step-calls-") as tmp:
-        run = Path(tmp) / "run"
-        shutil.copytree(HERE / "cache" / a.case / "run", run)
-        for ck in (run / "checkpoints").glob("ckpt_*.h5"):
-            if int(ck.stem.split("_")[1]) > step:
-                ck.unlink()
+        run = stiffened_copy(a.case, step, Path(tmp) / "run")
         with contextlib.redirect_stdout(io.StringIO()):
             pdem_main(["run", scene, "--out", str(run), "--steps", str(step + WARMUP)])
         times = CallTimes()
@@ -102,8 +94,7 @@ def main(argv=None):
         out = io.StringIO()
         with contextlib.redirect_stdout(out):
             pdem_main(["run", scene, "--out", str(run), "--steps", str(step + WARMUP + a.steps)])
-    table = {k: float(v) for k, v in re.findall(r"^(\w+)\s*\|\s*([\d.]+)\s*\|", out.getvalue(), re.M)}
-    loop = sum(v for k, v in table.items() if k != "output")
+    loop = sum(v for k, v in timing(out.getvalue()).items() if k != "output")
     wrap = wrapper_seconds()
     rows = sorted(((sec - n * wrap, name, n, dispatch_seconds(args)) for name, (n, sec, args) in times.sites.items()),
                   key=lambda r: r[0], reverse=True)

@@ -101,7 +101,7 @@ from ..build.config import check_keys, run_settings, scene_from_dict
 from ..driver import observables
 from ..driver.fragments import FragmentRecorder
 from ..driver.results import write_root_attrs
-from ..driver.stages import Stage, empty_tables, next_free_gid, nothing, scaled_stiffness
+from ..driver.stages import Stage, empty_tables, next_free_gid, nothing, remove_above, scaled_stiffness
 from ..errors import InputError
 from ..io.checkpoint import CheckpointError, read_checkpoint
 from ..boundaries.loads import ETA_ZERO, AxleTrain, Haversine, SleeperLoad
@@ -846,7 +846,7 @@ class TrackRun(PreparedRun):
         the bed cut at bed_depth, the sleepers placed on it, a loose cloud poured around them
         (`refill_areas`, up to z_top times the overfill)."""
         c, doc = self.c, self.doc
-        tables, cut = remove_where(tables, lambda pos, r: pos[:, 2] + r > c["bed_depth"])
+        tables, cut = remove_above(tables, c["bed_depth"])
         n0 = len(tables["particles"]["gid"])
         rise = profile(c)["z_top"] - c["bed_depth"]
         gid = self.state["next_gid"]  # (the cut's gids are not reused)
