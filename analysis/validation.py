@@ -327,8 +327,21 @@ def track_quantity(path, name):
 
 
 
+def merged_members(old, new, campaign):
+    """The members of a values file: ``new`` (the finished members found under runs/) and those
+    of the ``old`` file (or None) that are not among them but still belong to the campaign with
+    the same parameters (run on another machine or in an earlier session, whose result files
+    are not here), in the campaign's member order; ``campaign`` lists (name, params)."""
+    by_name = {m["name"]: m for m in (old or {}).get("members", [])}
+    by_name.update({m["name"]: m for m in new})
+    fresh = {m["name"] for m in new}
+    return [by_name[name] for name, params in campaign
+            if name in by_name and (name in fresh or by_name[name]["params"] == params)]
+
+
 def refresh(rows, root) -> list[Path]:
-    """Rewrite the values file of every ``campaign`` row whose campaign directory has finished members."""
+    """Rewrite the values file of every ``campaign`` row whose campaign directory has finished
+    members; members the file already holds and that are not finished here stay (`merged_members`)."""
     from .campaign import read_campaign
 
     wanted = {}
@@ -352,9 +365,12 @@ def refresh(rows, root) -> list[Path]:
                 values[q] = v if math.isfinite(v) else None
             members.append({"name": m.name, "params": m.params,
                             "results": str(Path(runs) / m.dir.name / "results.h5"), "values": values})
-        data = {"format": VALUES_FORMAT, "campaign": camp.name, "runs": runs,
-                "not_done": [m.name for m in camp.members if not m.done], "members": members}
         out = _path(root, file)
+        old = json.loads(out.read_text()) if out.is_file() else None
+        members = merged_members(old, members, [(m.name, m.params) for m in camp.members])
+        done = {m["name"] for m in members}
+        data = {"format": VALUES_FORMAT, "campaign": camp.name, "runs": runs,
+                "not_done": [m.name for m in camp.members if m.name not in done], "members": members}
         out.parent.mkdir(parents=True, exist_ok=True)
         text = json.dumps(data, indent=1) + "\n"
         if not out.is_file() or out.read_text() != text:

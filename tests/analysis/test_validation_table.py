@@ -255,3 +255,21 @@ def test_cost_of_a_stopped_run_from_its_log(tmp_path):
         V.stopped_run_rate(run, "load")
     with pytest.raises(V.ValidationError, match="log.txt"):
         V.project_run(tmp_path, steps=1.0)
+
+
+def test_a_refresh_keeps_the_members_finished_elsewhere():
+    """A values file gathers a campaign's members across sessions and machines: a refresh from a
+    runs/ directory holding only some members keeps the others (same name and parameters), takes
+    the fresh values of those run again, and drops members the campaign no longer has or whose
+    parameters changed."""
+    old = {"members": [{"name": "a_seed-1", "params": {"case": "a", "seed": 1}, "values": {"q": 1.0}},
+                       {"name": "b_seed-1", "params": {"case": "b", "seed": 1}, "values": {"q": 2.0}},
+                       {"name": "c_seed-1", "params": {"case": "c", "seed": 1}, "values": {"q": 3.0}},
+                       {"name": "gone_seed-1", "params": {"case": "gone", "seed": 1}, "values": {"q": 4.0}}]}
+    new = [{"name": "b_seed-1", "params": {"case": "b", "seed": 1}, "values": {"q": 20.0}},
+           {"name": "d_seed-1", "params": {"case": "d", "seed": 1}, "values": {"q": 5.0}}]
+    campaign = [("a_seed-1", {"case": "a", "seed": 1}), ("b_seed-1", {"case": "b", "seed": 1}),
+                ("c_seed-1", {"case": "c", "seed": 1, "x": 0.5}), ("d_seed-1", {"case": "d", "seed": 1})]
+    got = V.merged_members(old, new, campaign)
+    assert [(m["name"], m["values"]["q"]) for m in got] == [("a_seed-1", 1.0), ("b_seed-1", 20.0), ("d_seed-1", 5.0)]
+    assert V.merged_members(None, new, campaign) == new
