@@ -333,10 +333,8 @@ def merged_members(old, new, campaign):
     the same parameters (run on another machine or in an earlier session, whose result files
     are not here), in the campaign's member order; ``campaign`` lists (name, params)."""
     by_name = {m["name"]: m for m in (old or {}).get("members", [])}
-    by_name.update({m["name"]: m for m in new})
-    fresh = {m["name"] for m in new}
-    return [by_name[name] for name, params in campaign
-            if name in by_name and (name in fresh or by_name[name]["params"] == params)]
+    by_name.update({m["name"]: m for m in new})  # (a fresh member has the campaign's parameters)
+    return [by_name[name] for name, params in campaign if name in by_name and by_name[name]["params"] == params]
 
 
 def refresh(rows, root) -> list[Path]:
@@ -366,14 +364,15 @@ def refresh(rows, root) -> list[Path]:
             members.append({"name": m.name, "params": m.params,
                             "results": str(Path(runs) / m.dir.name / "results.h5"), "values": values})
         out = _path(root, file)
-        old = json.loads(out.read_text()) if out.is_file() else None
-        members = merged_members(old, members, [(m.name, m.params) for m in camp.members])
+        previous = out.read_text() if out.is_file() else None
+        members = merged_members(json.loads(previous) if previous else None, members,
+                                 [(m.name, m.params) for m in camp.members])
         done = {m["name"] for m in members}
         data = {"format": VALUES_FORMAT, "campaign": camp.name, "runs": runs,
                 "not_done": [m.name for m in camp.members if m.name not in done], "members": members}
         out.parent.mkdir(parents=True, exist_ok=True)
         text = json.dumps(data, indent=1) + "\n"
-        if not out.is_file() or out.read_text() != text:
+        if text != previous:
             out.write_text(text)
         written.append(out)
     return written
